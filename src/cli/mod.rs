@@ -1,0 +1,94 @@
+//! The `uvms` command line (DESIGN.md, "Command line and files").
+//!
+//! Every command returns a [`Report`]: a JSON summary and a human-readable text. With `--json`
+//! the summary is printed on stdout; the text always goes to stderr (unless `--quiet`). A command
+//! that writes files writes them under `--out DIR`, including `summary.json` and the resolved
+//! `config.toml`.
+
+use crate::error::Result;
+use crate::output::OutDir;
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::io::IsTerminal;
+
+/// Command-line arguments.
+#[derive(Debug, Parser)]
+#[command(
+    name = "uvms",
+    version,
+    about = "Underwater stereo scan to force-controlled contact operation"
+)]
+pub struct Cli {
+    /// Print the run's summary as one JSON object on stdout.
+    #[arg(long, global = true)]
+    pub json: bool,
+    /// No progress bars and no human-readable text on stderr (errors are still printed).
+    #[arg(long, global = true)]
+    pub quiet: bool,
+    /// The command to run.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {}
+
+/// What a command produced.
+#[derive(Debug)]
+pub struct Report {
+    /// The run's summary (`summary.json`, and stdout under `--json`).
+    pub summary: serde_json::Value,
+    /// A human-readable account, printed on stderr.
+    pub text: String,
+    /// Where the command wrote its products, if anywhere; `summary.json` is added there.
+    pub out: Option<OutDir>,
+}
+
+/// Flags every command sees.
+#[derive(Debug, Clone, Copy)]
+pub struct Ctx {
+    /// `--json` was given.
+    pub json: bool,
+    /// `--quiet` was given.
+    pub quiet: bool,
+}
+
+impl Ctx {
+    /// A progress bar of `len` steps, drawn only on an interactive terminal and never under
+    /// `--quiet`.
+    pub fn progress(&self, len: u64, message: &str) -> ProgressBar {
+        if self.quiet || !std::io::stderr().is_terminal() {
+            return ProgressBar::hidden();
+        }
+        let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
+        if let Ok(style) = ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed_precise}")
+        {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        bar.set_message(message.to_string());
+        bar
+    }
+}
+
+/// Runs a parsed command line: the command, then its summary and text.
+///
+/// # Errors
+/// Whatever the command returns; the caller maps it to the exit code.
+pub fn execute(cli: Cli) -> Result<()> {
+    let ctx = Ctx {
+        json: cli.json,
+        quiet: cli.quiet,
+    };
+    let report: Report = match cli.command {};
+    if let Some(out) = &report.out {
+        out.write_json("summary.json", &report.summary)?;
+    }
+    if !ctx.quiet && !report.text.is_empty() {
+        eprint!("{}", report.text);
+    }
+    if ctx.json {
+        println!("{}", report.summary);
+    }
+    Ok(())
+}

@@ -1,0 +1,70 @@
+//! Point clouds and the operations on them.
+//!
+//! Positions are `f64` in metres, in the frame the file or stage states (scans are in the camera
+//! frame `S` unless said otherwise).
+
+use nalgebra::{Point3, Vector3};
+
+/// A point cloud: positions with optional per-point colours and normals.
+///
+/// Invariant: `colors` and `normals`, when present, have one entry per point.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PointCloud {
+    /// Positions, metres.
+    pub points: Vec<Point3<f64>>,
+    /// Per-point colours (red, green, blue).
+    pub colors: Option<Vec<[u8; 3]>>,
+    /// Per-point unit normals.
+    pub normals: Option<Vec<Vector3<f64>>>,
+}
+
+impl PointCloud {
+    /// A cloud of bare positions.
+    pub fn from_points(points: Vec<Point3<f64>>) -> Self {
+        PointCloud {
+            points,
+            colors: None,
+            normals: None,
+        }
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// True when the cloud has no points.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// The sub-cloud of the given point indices, in that order, with their colours and normals.
+    pub fn select(&self, indices: &[usize]) -> PointCloud {
+        PointCloud {
+            points: indices.iter().map(|&i| self.points[i]).collect(),
+            colors: self
+                .colors
+                .as_ref()
+                .map(|c| indices.iter().map(|&i| c[i]).collect()),
+            normals: self
+                .normals
+                .as_ref()
+                .map(|n| indices.iter().map(|&i| n[i]).collect()),
+        }
+    }
+
+    /// Axis-aligned bounding box `(min, max)`, or `None` for an empty cloud.
+    pub fn bbox(&self) -> Option<(Point3<f64>, Point3<f64>)> {
+        bbox(&self.points)
+    }
+}
+
+/// Axis-aligned bounding box `(min, max)` of points, or `None` when there are none.
+pub fn bbox(points: &[Point3<f64>]) -> Option<(Point3<f64>, Point3<f64>)> {
+    let first = *points.first()?;
+    Some(
+        points
+            .iter()
+            .fold((first, first), |(lo, hi), p| (lo.inf(p), hi.sup(p))),
+    )
+}

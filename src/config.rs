@@ -1,0 +1,79 @@
+//! Reading TOML configuration files.
+//!
+//! Every configuration struct is `#[serde(default, deny_unknown_fields)]` with a `Default`: a
+//! missing key takes its default, a misspelt key is an error naming the key, the file and the line.
+
+use crate::error::{Error, Result};
+use serde::de::DeserializeOwned;
+use std::path::Path;
+
+/// Parses a configuration from TOML text; `origin` names the text in errors (usually the path).
+///
+/// # Errors
+/// [`Error::Input`] naming `origin`, the line, and what is wrong (unknown key, wrong type...).
+pub fn from_toml_str<T: DeserializeOwned>(text: &str, origin: &str) -> Result<T> {
+    toml::from_str(text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+        let what = match line {
+            Some(l) => format!("{origin} line {l}"),
+            None => origin.to_string(),
+        };
+        Error::input(what, e.message())
+    })
+}
+
+/// Loads a configuration file, or the defaults when `path` is `None`.
+///
+/// # Errors
+/// [`Error::Input`] if the file cannot be read or does not parse.
+pub fn load<T: DeserializeOwned + Default>(path: Option<&Path>) -> Result<T> {
+    match path {
+        None => Ok(T::default()),
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .map_err(|e| Error::input(p.display(), format!("cannot read: {e}")))?;
+            from_toml_str(&text, &p.display().to_string())
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde::Deserialize;
+
+    #[derive(Debug, Deserialize, Default, PartialEq)]
+    #[serde(default, deny_unknown_fields)]
+    struct Demo {
+        seed: u64,
+        inner: Inner,
+    }
+    #[derive(Debug, Deserialize, Default, PartialEq)]
+    #[serde(default, deny_unknown_fields)]
+    struct Inner {
+        radius_m: f64,
+    }
+
+    #[test]
+    fn missing_keys_take_defaults() {
+        let d: Demo = from_toml_str("seed = 3\n", "x.toml").unwrap();
+        assert_eq!(
+            d,
+            Demo {
+                seed: 3,
+                ..Default::default()
+            }
+        );
+    }
+
+    #[test]
+    fn typo_names_key_file_and_line() {
+        let err = from_toml_str::<Demo>("seed = 3\n[inner]\nradius = 1.0\n", "x.toml").unwrap_err();
+        let msg = err.to_string();
+        assert_eq!(err.exit_code(), 2);
+        assert!(msg.contains("x.toml line 3") && msg.contains("radius"), "{msg}");
+        assert!(!msg.contains('\n'));
+    }
+}

@@ -1,0 +1,3 @@
+//! Reading and writing files: PLY clouds and meshes.
+
+pub mod ply;

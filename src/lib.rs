@@ -1,0 +1,21 @@
+//! # uvms
+//!
+//! An underwater stereo scan taken all the way to a force-controlled contact operation by an AUV
+//! carrying a 6-DOF manipulator, after Konoplin et al., J. Mar. Sci. Eng. 2024, 12, 1126.
+//!
+//! Layers: [`cloud`] and [`mesh`] hold the data, [`io`] reads and writes it, [`frames`] names the
+//! transforms; the stages and the simulation build on those. [`cli`] is the command line.
+//! Conventions: f64 everywhere, SI units, transforms `t_a_b` map `b` coordinates into `a`.
+
+pub mod cli;
+pub mod cloud;
+pub mod config;
+pub mod error;
+pub mod frames;
+pub mod io;
+pub mod mesh;
+pub mod output;
+pub mod spatial;
+pub mod surface;
+
+pub use error::{Error, Result};

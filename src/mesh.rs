@@ -1,0 +1,39 @@
+//! Triangle meshes (reference models, triangulated scan surfaces, true scene surfaces).
+
+use nalgebra::{Isometry3, Point3, Vector3};
+
+/// An indexed triangle mesh; triangles are counter-clockwise seen from outside (normals point out).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TriangleMesh {
+    /// Vertex positions, metres.
+    pub vertices: Vec<Point3<f64>>,
+    /// Vertex indices of each triangle.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriangleMesh {
+    /// The unit normal of triangle `t` (by its winding), or `None` for a degenerate triangle.
+    pub fn triangle_normal(&self, t: usize) -> Option<Vector3<f64>> {
+        let [a, b, c] = self.triangles[t].map(|i| self.vertices[i as usize]);
+        (b - a).cross(&(c - a)).try_normalize(1e-300)
+    }
+
+    /// The mesh with every vertex mapped by `pose`.
+    pub fn transformed(&self, pose: &Isometry3<f64>) -> TriangleMesh {
+        TriangleMesh {
+            vertices: self.vertices.iter().map(|v| pose * v).collect(),
+            triangles: self.triangles.clone(),
+        }
+    }
+
+    /// Total surface area, square metres.
+    pub fn area(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.vertices[i as usize]);
+                0.5 * (b - a).cross(&(c - a)).norm()
+            })
+            .sum()
+    }
+}
