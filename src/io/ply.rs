@@ -1,14 +1,139 @@
 //! PLY files: clouds (with optional colours and normals) and triangle meshes.
 //!
+//! Reading ([`read_cloud`], [`read_mesh`], [`read_ply`]) accepts the three encodings of the
+//! format (ascii, binary little- and big-endian) and:
+//! - `element vertex` with `x`, `y`, `z` as `float` or `double` (any other type is rejected);
+//!   optional `red`/`green`/`blue` (`uchar` as is, `ushort` divided by 257, `float`/`double`
+//!   taken as 0..1 and scaled by 255, rounded and clamped) and `nx`/`ny`/`nz` (`float`/`double`);
+//!   a colour or normal triple is used only when all three properties are present;
+//! - `element face` with a `vertex_indices` (or `vertex_index`) list of any integer type;
+//!   polygons of n > 3 vertices are fan-triangulated into n − 2 triangles `(v0, vk, vk+1)`;
+//! - any other element or property is skipped (but still walked, so a truncated payload is
+//!   caught).
+//!
+//! Vertices whose position is not finite are dropped and counted ([`PlyInfo::non_finite_dropped`]);
+//! the remaining vertices keep their order and are renumbered, and a triangle that uses a
+//! dropped vertex is dropped too ([`PlyInfo::triangles_dropped`]). A normal that is not finite is
+//! kept as read.
+//!
+//! Every malformed file is an [`Error::Input`] naming the file and the problem in one line. The
+//! element counts of the header are checked against the bytes that follow it **before** anything
+//! is allocated, so a header claiming 10^12 vertices in a 200-byte file is rejected at once.
+//! Binary records without lists are decoded straight from the bytes at a fixed stride.
+//!
 //! Writing: binary little-endian, `double` coordinates and normals, `uchar` colours,
 //! `element face` with `list uchar int vertex_indices`.
 
+use super::ply_read::{self, Faces};
 use crate::cloud::PointCloud;
 use crate::error::{Error, Result};
 use crate::mesh::TriangleMesh;
+use serde::Serialize;
 use std::io::Write;
+use std::path::Path;
 
-fn header(w: &mut dyn Write, vertices: usize, colors: bool, normals: bool, faces: Option<usize>) -> std::io::Result<()> {
+/// What a PLY file held, as read.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlyInfo {
+    /// `ascii`, `binary_little_endian` or `binary_big_endian`.
+    pub encoding: String,
+    /// The vertex count the header declares.
+    pub vertices_in_header: u64,
+    /// Vertices read with a finite position (the points of the cloud).
+    pub points: usize,
+    /// Vertices dropped because a coordinate was NaN or infinite.
+    pub non_finite_dropped: usize,
+    /// The face count the header declares (0 without a `face` element).
+    pub faces: u64,
+    /// Triangles after fan triangulation, or `None` when the faces were not read
+    /// ([`read_cloud`] skips them).
+    pub triangles: Option<usize>,
+    /// Triangles dropped because they use a dropped (non-finite) vertex.
+    pub triangles_dropped: usize,
+    /// The cloud carries colours.
+    pub has_colors: bool,
+    /// The cloud carries normals.
+    pub has_normals: bool,
+    /// Every element of the header, in order, with its properties as declared.
+    pub elements: Vec<ElementInfo>,
+    /// Smallest corner of the axis-aligned bounding box of the points, metres (`None` if empty).
+    pub bbox_min: Option<[f64; 3]>,
+    /// Largest corner of the axis-aligned bounding box of the points, metres (`None` if empty).
+    pub bbox_max: Option<[f64; 3]>,
+}
+
+/// One element of a PLY header.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ElementInfo {
+    /// Element name (`vertex`, `face`, ...).
+    pub name: String,
+    /// Record count the header declares.
+    pub count: u64,
+    /// Properties as the header declares them (`float x`, `list uchar int vertex_indices`).
+    pub properties: Vec<String>,
+}
+
+/// A whole PLY file: its vertices as a cloud, its faces as triangles, and what was read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlyData {
+    /// The finite vertices, with colours and normals when the file has them.
+    pub cloud: PointCloud,
+    /// Triangles indexing `cloud.points` (empty when the file has no faces).
+    pub triangles: Vec<[u32; 3]>,
+    /// What was read.
+    pub info: PlyInfo,
+}
+
+/// Reads a PLY file's vertices as a point cloud (faces, if any, are skipped).
+///
+/// # Errors
+/// [`Error::Input`] naming `path` and the problem: missing file, directory, malformed header,
+/// counts the file cannot hold, truncated payload, `x`/`y`/`z` missing or not float/double, ...
+pub fn read_cloud(path: &Path) -> Result<(PointCloud, PlyInfo)> {
+    let p = ply_read::read(path, Faces::Skip)?;
+    Ok((p.cloud, p.info))
+}
+
+/// Reads a PLY mesh: its finite vertices and its faces, fan-triangulated.
+///
+/// # Errors
+/// As [`read_cloud`], plus: no `face` element, a face without a `vertex_indices`/`vertex_index`
+/// integer list, a face with fewer than 3 indices, or an index out of range.
+pub fn read_mesh(path: &Path) -> Result<TriangleMesh> {
+    let p = ply_read::read(path, Faces::Read)?;
+    if !p.has_face_element {
+        return Err(Error::input(
+            path.display(),
+            "the header declares no 'face' element: a point cloud, not a mesh",
+        ));
+    }
+    Ok(TriangleMesh {
+        vertices: p.cloud.points,
+        triangles: p.triangles,
+    })
+}
+
+/// Reads everything: vertices (with colours and normals), faces (validated and triangulated when
+/// the file has them) and the [`PlyInfo`].
+///
+/// # Errors
+/// As [`read_mesh`], except that a file without faces is accepted.
+pub fn read_ply(path: &Path) -> Result<PlyData> {
+    let p = ply_read::read(path, Faces::Read)?;
+    Ok(PlyData {
+        cloud: p.cloud,
+        triangles: p.triangles,
+        info: p.info,
+    })
+}
+
+fn header(
+    w: &mut dyn Write,
+    vertices: usize,
+    colors: bool,
+    normals: bool,
+    faces: Option<usize>,
+) -> std::io::Result<()> {
     writeln!(w, "ply\nformat binary_little_endian 1.0\ncomment written by uvms")?;
     writeln!(w, "element vertex {vertices}")?;
     writeln!(w, "property double x\nproperty double y\nproperty double z")?;
@@ -30,7 +155,14 @@ fn header(w: &mut dyn Write, vertices: usize, colors: bool, normals: bool, faces
 /// [`Error::Failed`] if the writer fails.
 pub fn write_cloud(w: &mut dyn Write, cloud: &PointCloud) -> Result<()> {
     let io = |e: std::io::Error| Error::failed("write PLY", e);
-    header(w, cloud.len(), cloud.colors.is_some(), cloud.normals.is_some(), None).map_err(io)?;
+    header(
+        w,
+        cloud.len(),
+        cloud.colors.is_some(),
+        cloud.normals.is_some(),
+        None,
+    )
+    .map_err(io)?;
     let mut buf = Vec::with_capacity(cloud.len() * 51);
     for (i, p) in cloud.points.iter().enumerate() {
         for v in p.coords.iter() {
