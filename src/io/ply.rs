@@ -28,6 +28,7 @@ use super::ply_read::{self, Faces};
 use crate::cloud::PointCloud;
 use crate::error::{Error, Result};
 use crate::mesh::TriangleMesh;
+use nalgebra::{Point3, Vector3};
 use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
@@ -149,51 +150,45 @@ fn header(
     writeln!(w, "end_header")
 }
 
-/// Writes a cloud as binary little-endian PLY (with its colours and normals when present).
-///
-/// # Errors
-/// [`Error::Failed`] if the writer fails.
-pub fn write_cloud(w: &mut dyn Write, cloud: &PointCloud) -> Result<()> {
+/// Writes vertices (with optional colours and normals, one per point) and optional triangles.
+fn write_binary(
+    w: &mut dyn Write,
+    points: &[Point3<f64>],
+    colors: Option<&[[u8; 3]]>,
+    normals: Option<&[Vector3<f64>]>,
+    triangles: Option<&[[u32; 3]]>,
+) -> Result<()> {
     let io = |e: std::io::Error| Error::failed("write PLY", e);
+    if colors.is_some_and(|c| c.len() != points.len()) || normals.is_some_and(|n| n.len() != points.len()) {
+        return Err(Error::failed(
+            "write PLY",
+            "colours or normals do not match the points",
+        ));
+    }
     header(
         w,
-        cloud.len(),
-        cloud.colors.is_some(),
-        cloud.normals.is_some(),
-        None,
+        points.len(),
+        colors.is_some(),
+        normals.is_some(),
+        triangles.map(<[_]>::len),
     )
     .map_err(io)?;
-    let mut buf = Vec::with_capacity(cloud.len() * 51);
-    for (i, p) in cloud.points.iter().enumerate() {
+    let n_tri = triangles.map_or(0, <[_]>::len);
+    let mut buf = Vec::with_capacity(points.len() * 51 + n_tri * 13);
+    for (i, p) in points.iter().enumerate() {
         for v in p.coords.iter() {
             buf.extend_from_slice(&v.to_le_bytes());
         }
-        if let Some(n) = &cloud.normals {
-            for v in n[i].iter() {
+        if let Some(n) = normals.and_then(|n| n.get(i)) {
+            for v in n.iter() {
                 buf.extend_from_slice(&v.to_le_bytes());
             }
         }
-        if let Some(c) = &cloud.colors {
-            buf.extend_from_slice(&c[i]);
+        if let Some(c) = colors.and_then(|c| c.get(i)) {
+            buf.extend_from_slice(c);
         }
     }
-    w.write_all(&buf).map_err(io)
-}
-
-/// Writes a triangle mesh as binary little-endian PLY.
-///
-/// # Errors
-/// [`Error::Failed`] if the writer fails or an index does not fit a PLY `int`.
-pub fn write_mesh(w: &mut dyn Write, mesh: &TriangleMesh) -> Result<()> {
-    let io = |e: std::io::Error| Error::failed("write PLY", e);
-    header(w, mesh.vertices.len(), false, false, Some(mesh.triangles.len())).map_err(io)?;
-    let mut buf = Vec::with_capacity(mesh.vertices.len() * 24 + mesh.triangles.len() * 13);
-    for p in &mesh.vertices {
-        for v in p.coords.iter() {
-            buf.extend_from_slice(&v.to_le_bytes());
-        }
-    }
-    for t in &mesh.triangles {
+    for t in triangles.unwrap_or_default() {
         buf.push(3);
         for &i in t {
             let i = i32::try_from(i).map_err(|_| Error::failed("write PLY", "vertex index exceeds int"))?;
@@ -201,4 +196,41 @@ pub fn write_mesh(w: &mut dyn Write, mesh: &TriangleMesh) -> Result<()> {
         }
     }
     w.write_all(&buf).map_err(io)
+}
+
+/// Writes a cloud as binary little-endian PLY (with its colours and normals when present).
+///
+/// # Errors
+/// [`Error::Failed`] if the writer fails.
+pub fn write_cloud(w: &mut dyn Write, cloud: &PointCloud) -> Result<()> {
+    write_binary(
+        w,
+        &cloud.points,
+        cloud.colors.as_deref(),
+        cloud.normals.as_deref(),
+        None,
+    )
+}
+
+/// Writes a triangle mesh as binary little-endian PLY.
+///
+/// # Errors
+/// [`Error::Failed`] if the writer fails or an index does not fit a PLY `int`.
+pub fn write_mesh(w: &mut dyn Write, mesh: &TriangleMesh) -> Result<()> {
+    write_binary(w, &mesh.vertices, None, None, Some(&mesh.triangles))
+}
+
+/// Writes a cloud (with its colours and normals) and triangles over its points as binary
+/// little-endian PLY: what [`read_ply`] reads back, exactly (`double` positions and normals).
+///
+/// # Errors
+/// [`Error::Failed`] if the writer fails or an index does not fit a PLY `int`.
+pub fn write_ply(w: &mut dyn Write, cloud: &PointCloud, triangles: &[[u32; 3]]) -> Result<()> {
+    write_binary(
+        w,
+        &cloud.points,
+        cloud.colors.as_deref(),
+        cloud.normals.as_deref(),
+        Some(triangles),
+    )
 }

@@ -321,6 +321,13 @@ fn parse_header(bytes: &[u8]) -> std::result::Result<Header, String> {
                     kind,
                 });
             }
+            other if other.starts_with(|c: char| c.is_ascii_digit() || "+-.".contains(c)) => {
+                let shown: String = line.chars().take(24).collect();
+                return Err(format!(
+                    "missing 'end_header': header line {line_no} looks like data ('{}')",
+                    shown.escape_default()
+                ));
+            }
             other => {
                 let shown: String = other.chars().take(24).collect();
                 return Err(at(format!("unknown header keyword '{}'", shown.escape_default())));
@@ -349,7 +356,8 @@ fn check_counts(h: &Header, payload_len: usize) -> std::result::Result<(), Strin
         let slack = u128::from(h.encoding == Encoding::Ascii);
         if needed > avail + slack {
             return Err(format!(
-                "element '{}' declares {} records of at least {} {unit} each, more than the {} bytes after the header can hold",
+                "payload too short: element '{}' declares {} records of at least {} {unit} each, \
+                 but only {} bytes follow the header (truncated file or impossible count)",
                 e.name, e.count, per_record, payload_len
             ));
         }
@@ -595,8 +603,15 @@ impl Binary<'_> {
                     let bytes = n.saturating_mul(item.size() as u64);
                     let left = self.data.len().saturating_sub(self.pos) as u64;
                     if bytes > left {
+                        // Longer than the whole payload: the count itself is wrong; otherwise
+                        // the file was cut short.
+                        let what = if bytes > self.data.len() as u64 {
+                            "impossible list length"
+                        } else {
+                            "truncated payload: list length"
+                        };
                         return Err(format!(
-                            "impossible list length {n} in record {record} of element '{}' ('{}' needs {bytes} bytes, {left} remain)",
+                            "{what} {n} in record {record} of element '{}' ('{}' needs {bytes} bytes, {left} remain)",
                             e.name, p.name
                         ));
                     }
@@ -1081,7 +1096,7 @@ mod tests {
             &[0u8; 24],
         );
         let e = parse(&f, Faces::Skip).err().unwrap();
-        assert!(e.contains("more than the 24 bytes"), "{e}");
+        assert!(e.contains("only 24 bytes follow"), "{e}");
     }
 
     #[test]
@@ -1122,5 +1137,70 @@ mod tests {
             e.contains("impossible list length 3") || e.contains("truncated"),
             "{e}"
         );
+    }
+
+    /// A binary mesh with colours, a list in the vertex element and an unknown element.
+    fn sample_binary() -> Vec<u8> {
+        let mut payload = Vec::new();
+        for i in 0..4u8 {
+            for v in [f32::from(i), 1.0, -2.0] {
+                payload.extend_from_slice(&v.to_le_bytes());
+            }
+            payload.extend_from_slice(&[i, 2 * i, 3 * i, 2, 7, 9]);
+        }
+        for poly in [&[0u32, 1, 2][..], &[0, 2, 3, 1]] {
+            payload.push(poly.len() as u8);
+            for &i in poly {
+                payload.extend_from_slice(&i.to_le_bytes());
+            }
+        }
+        payload.extend_from_slice(&5i16.to_le_bytes());
+        binary(
+            "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+             property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
+             property list uchar uchar tags\nelement face 2\nproperty list uchar uint vertex_indices\n\
+             element extra 1\nproperty short s\nend_header\n",
+            &payload,
+        )
+    }
+
+    #[test]
+    fn sample_binary_reads() {
+        let p = parse(&sample_binary(), Faces::Read).unwrap();
+        assert_eq!(p.cloud.len(), 4);
+        assert_eq!(p.cloud.colors.unwrap()[3], [3, 6, 9]);
+        assert_eq!(p.triangles, vec![[0, 1, 2], [0, 2, 3], [0, 3, 1]]);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2000))]
+        /// Any byte changed, any truncation: an error or a cloud, never a panic.
+        #[test]
+        fn corrupted_files_never_panic(
+            edits in proptest::collection::vec((0usize..400, proptest::prelude::any::<u8>()), 0..4),
+            cut in 0usize..400,
+            ascii in proptest::prelude::any::<bool>(),
+        ) {
+            let mut f = if ascii {
+                b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                  property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
+                  element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+                  0 0 0 1 2 3\n1 0 0 4 5 6\n0 1 0 7 8 9\n3 0 1 2\n".to_vec()
+            } else {
+                sample_binary()
+            };
+            for (at, b) in edits {
+                let n = f.len();
+                f[at % n] = b;
+            }
+            f.truncate(cut.max(f.len() / 2));
+            for faces in [Faces::Read, Faces::Skip] {
+                if let Ok(p) = parse(&f, faces) {
+                    let n = p.cloud.len() as u32;
+                    proptest::prop_assert!(p.triangles.iter().flatten().all(|&i| i < n));
+                    proptest::prop_assert!(p.cloud.points.iter().all(|q| q.coords.iter().all(|v| v.is_finite())));
+                }
+            }
+        }
     }
 }
