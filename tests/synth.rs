@@ -352,3 +352,67 @@ fn bad_configurations_exit_2_naming_the_key() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("seed"));
     assert!(!out.join("scan.ply").exists());
 }
+
+#[test]
+fn a_reference_file_replaces_the_generated_bottle() {
+    let dir = tempfile::tempdir().unwrap();
+    let generated = small(4);
+    let a = synthesize(&generated).unwrap();
+    // The same bottle, through a PLY file: the same scene, point for point.
+    let path = dir.path().join("bottle.ply");
+    let out = uvms::output::OutDir::create(dir.path(), &[]).unwrap();
+    out.write_with("bottle.ply", |w| {
+        uvms::io::ply::write_mesh(w, a.reference.as_ref().unwrap())
+    })
+    .unwrap();
+    let mut from_file = generated.clone();
+    from_file.object.reference = Some(path.clone());
+    let b = synthesize(&from_file).unwrap();
+    assert_eq!(a.scan, b.scan);
+    assert_eq!(a.truth.t_scan_reference, b.truth.t_scan_reference);
+    assert_eq!(b.truth.object.as_ref().unwrap().model, path.display().to_string());
+    // A missing file is bad input naming the key.
+    from_file.object.reference = Some(dir.path().join("missing.ply"));
+    let e = synthesize(&from_file).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(e.to_string().contains("object.reference"), "{e}");
+}
+
+/// The files under `data/` are what the commands in `data/README.md` make, byte for byte.
+#[test]
+fn committed_data_is_reproducible() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
+    let dir = tempfile::tempdir().unwrap();
+    let sediment_cfg = data.join("configs/sediment.toml");
+    let runs: [(&str, Vec<&str>); 2] = [
+        ("bottle", vec!["--scene", "bottle", "--seed", "1"]),
+        (
+            "sediment",
+            vec!["--config", sediment_cfg.to_str().unwrap(), "--seed", "1"],
+        ),
+    ];
+    for (name, args) in runs {
+        let out = dir.path().join(name);
+        let mut all = vec!["synth", "--quiet"];
+        all.extend(args);
+        all.extend(["--out", out.to_str().unwrap()]);
+        let o = run(&all);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let made = files(&out);
+        let committed = files(&data.join("scans").join(name));
+        let names = |v: &[(String, Vec<u8>)]| v.iter().map(|f| f.0.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&made), names(&committed), "{name}");
+        for (m, c) in made.iter().zip(&committed) {
+            assert!(
+                m.1 == c.1,
+                "data/scans/{name}/{} differs from what the command makes now",
+                c.0
+            );
+        }
+    }
+    let model = std::fs::read(data.join("models/bottle.ply")).unwrap();
+    assert!(
+        model == std::fs::read(dir.path().join("bottle/reference.ply")).unwrap(),
+        "data/models/bottle.ply"
+    );
+}

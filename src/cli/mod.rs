@@ -5,13 +5,14 @@
 //! that writes files writes them under `--out DIR`, including `summary.json` and the resolved
 //! `config.toml`.
 
-pub mod synth;
-
 use crate::error::Result;
 use crate::output::OutDir;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
+
+pub mod info;
+pub mod synth;
 
 /// Command-line arguments.
 #[derive(Debug, Parser)]
@@ -35,6 +36,8 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// What a PLY file holds: points, faces, properties, encoding, bounding box.
+    Info(info::InfoArgs),
     /// A synthetic underwater stereo scan with its ground truth.
     Synth(synth::SynthArgs),
 }
@@ -86,6 +89,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         quiet: cli.quiet,
     };
     let report: Report = match &cli.command {
+        Command::Info(args) => info::run(args, &ctx)?,
         Command::Synth(args) => synth::run(args, &ctx)?,
     };
     if let Some(out) = &report.out {

@@ -123,7 +123,7 @@ impl Default for SensorConfig {
             disparity_sigma_px: 0.15,
             textureless_seabed: 0.02,
             textureless_object: 0.06,
-            texture_patch_m: 0.04,
+            texture_patch_m: 0.08,
             max_incidence_deg: 80.0,
             speckle_fraction: 0.002,
             flying_fraction: 0.5,
@@ -167,10 +167,14 @@ impl Default for SeabedConfig {
     }
 }
 
-/// Where and how the object lies.
+/// Which object, and where and how it lies.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ObjectConfig {
+    /// A reference mesh (PLY) to use instead of the generated bottle, in its own model frame,
+    /// metres; it is laid with its `+z` up and its `+x` at `yaw_deg`. A relative path is taken
+    /// from the current folder. When absent, the bottle of `[object.bottle]` is generated.
+    pub reference: Option<std::path::PathBuf>,
     /// Heading of the model's `+x` axis (base to cap), degrees from north towards east; drawn
     /// from the seed when absent.
     pub yaw_deg: Option<f64>,
@@ -189,6 +193,7 @@ pub struct ObjectConfig {
 impl Default for ObjectConfig {
     fn default() -> Self {
         ObjectConfig {
+            reference: None,
             yaw_deg: None,
             roll_deg: 0.0,
             burial_m: 0.04,
@@ -413,10 +418,16 @@ impl SynthConfig {
         )?;
         o.bottle.validate("config object.bottle")?;
         non_negative(o.burial_m, "object.burial_m")?;
+        // With a reference file the model's height is known only once it is read (scene.rs).
         check(
-            o.burial_m < 0.9 * o.bottle.body_diameter_m,
+            o.reference.is_some() || o.burial_m < 0.9 * o.bottle.body_diameter_m,
             "object.burial_m",
             "must be less than 90 % of the body diameter (the object must show)",
+        )?;
+        check(
+            o.reference.as_ref().is_none_or(|p| !p.as_os_str().is_empty()),
+            "object.reference",
+            "is empty; leave it out to use the generated bottle",
         )?;
         non_negative(o.silt_height_m, "object.silt_height_m")?;
         check(

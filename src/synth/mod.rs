@@ -94,20 +94,22 @@ pub struct FoulingTruth {
 /// The object as synthesised.
 #[derive(Debug, Clone, Serialize)]
 pub struct ObjectTruth {
-    /// Which model (`bottle`).
-    pub model: &'static str,
-    /// Body diameter, metres.
-    pub body_diameter_m: f64,
-    /// Overall length, metres.
-    pub length_m: f64,
+    /// Which model: `bottle` (generated) or the reference file's path.
+    pub model: String,
+    /// Size of the model's bounding box along its x, y, z, metres.
+    pub extent_m: [f64; 3],
+    /// Body diameter of the generated bottle, metres.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub body_diameter_m: Option<f64>,
     /// Depth of the lowest point below the mean seabed plane, metres.
     pub burial_m: f64,
     /// Heading of the model's `+x`, degrees from north towards east.
     pub yaw_deg: f64,
     /// Rotation about the model's `+x`, degrees.
     pub roll_deg: f64,
-    /// The model's symmetry (a rotation about it leaves the shape unchanged).
-    pub symmetry: &'static str,
+    /// The model's symmetry (a rotation about it leaves the shape unchanged), when known.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub symmetry: Option<&'static str>,
     /// Fouling bumps and dents.
     pub fouling: Vec<FoulingTruth>,
 }
@@ -268,14 +270,20 @@ pub fn synthesize(config: &SynthConfig) -> Result<SynthScene> {
     let c = &cfg.camera;
     let object = composed.object.as_ref().map(|o| {
         let t_scan_reference = t_scan_world * o.t_world_reference;
+        let (lo, hi) = crate::cloud::bbox(&o.reference.vertices).unwrap_or_default();
+        let generated = cfg.object.reference.is_none();
         ObjectTruth {
-            model: "bottle",
-            body_diameter_m: cfg.object.bottle.body_diameter_m,
-            length_m: cfg.object.bottle.length_m,
+            model: cfg
+                .object
+                .reference
+                .as_ref()
+                .map_or("bottle".into(), |p| p.display().to_string()),
+            extent_m: (hi - lo).into(),
+            body_diameter_m: generated.then_some(cfg.object.bottle.body_diameter_m),
             burial_m: cfg.object.burial_m,
             yaw_deg: cfg.object.yaw_deg.unwrap_or(0.0),
             roll_deg: cfg.object.roll_deg,
-            symmetry: "rotation about the reference's x axis",
+            symmetry: generated.then_some("rotation about the reference's x axis"),
             fouling: o
                 .features
                 .iter()
@@ -296,7 +304,11 @@ pub fn synthesize(config: &SynthConfig) -> Result<SynthScene> {
         frames: FrameNotes {
             scan: "S, the left camera: z along the optical axis, x right, y down in the image; metres",
             world: "W, NED (x north, y east, z down); origin on the mean seabed plane vertically below the camera; the camera looks north and down",
-            reference: "the bottle model: +x along the axis from base to cap, origin on the axis midway between the base plane and the shoulder",
+            reference: if cfg.object.reference.is_some() {
+                "the reference file's own frame, laid with its +z up"
+            } else {
+                "the bottle model: +x along the axis from base to cap, origin on the axis midway between the base plane and the shoulder"
+            },
         },
         t_scan_reference: composed
             .object

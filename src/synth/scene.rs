@@ -244,6 +244,42 @@ fn crop_to_view(mesh: &TriangleMesh, cfg: &SynthConfig, t_scan_world: &Pose) -> 
     out
 }
 
+/// The reference model: the configured PLY file, or the generated bottle.
+///
+/// # Errors
+/// [`Error::Input`] if the file cannot be read, has no triangles, is not sized like an object
+/// (0.01 m to 20 m across), or would be buried past 90 % of its height.
+pub fn reference_mesh(cfg: &SynthConfig) -> Result<TriangleMesh> {
+    let o = &cfg.object;
+    let Some(path) = &o.reference else {
+        return bottle::bottle_mesh(&o.bottle);
+    };
+    let what = format!("config object.reference {}", path.display());
+    let mesh = crate::io::ply::read_mesh(path).map_err(|e| Error::input("config object.reference", e))?;
+    if mesh.triangles.is_empty() {
+        return Err(Error::input(what, "the mesh has no triangles"));
+    }
+    let (lo, hi) =
+        crate::cloud::bbox(&mesh.vertices).ok_or_else(|| Error::input(&what, "the mesh has no vertices"))?;
+    let size = (hi - lo).norm();
+    if !(0.01..=20.0).contains(&size) {
+        return Err(Error::input(
+            what,
+            format!("the model is {size:.3} m across; expected 0.01 m to 20 m (units must be metres)"),
+        ));
+    }
+    if o.burial_m >= 0.9 * (hi.z - lo.z) {
+        return Err(Error::input(
+            "config object.burial_m",
+            format!(
+                "must be less than 90 % of the model's height along z ({:.3} m)",
+                hi.z - lo.z
+            ),
+        ));
+    }
+    Ok(mesh)
+}
+
 /// Builds the scene of a resolved, validated configuration.
 ///
 /// # Errors
@@ -258,7 +294,7 @@ pub fn compose(cfg: &SynthConfig) -> Result<Composed> {
     let (object_rot, reference, target_height) = match cfg.scene {
         SceneKind::Sediment => (UnitQuaternion::identity(), None, 0.0),
         SceneKind::Bottle => {
-            let mesh = bottle::bottle_mesh(&ocfg.bottle)?;
+            let mesh = reference_mesh(cfg)?;
             let rot = object_rotation(cfg, &up);
             let lowest = mesh
                 .vertices
