@@ -416,3 +416,25 @@ fn committed_data_is_reproducible() {
         "data/models/bottle.ply"
     );
 }
+
+#[test]
+fn impossible_camera_placements_are_bad_input() {
+    // Looking almost along a steep slope's fall line from 0.32 m: inside the bottle or in the sand.
+    let mut c = small(1);
+    c.camera.distance_m = 0.32;
+    c.camera.tilt_deg = 75.0;
+    c.object.yaw_deg = Some(180.0);
+    let e = synthesize(&c).unwrap_err();
+    assert_eq!(e.exit_code(), 2, "{e}");
+    assert!(e.to_string().contains("camera.distance_m"), "{e}");
+    let mut c = small(1);
+    c.camera.pixel_stride = 1;
+    c.camera.width_px = 20_000;
+    c.camera.height_px = 20_000;
+    assert!(
+        synthesize(&c)
+            .unwrap_err()
+            .to_string()
+            .contains("camera.pixel_stride")
+    );
+}

@@ -339,6 +339,13 @@ impl SynthConfig {
             "camera.pixel_stride",
             format!("must be 1 ..= 64 (got {})", c.pixel_stride),
         )?;
+        let kept = (c.width_px.div_ceil(c.pixel_stride.max(1)) as u64)
+            * (c.height_px.div_ceil(c.pixel_stride.max(1)) as u64);
+        check(
+            kept <= 20_000_000,
+            "camera.pixel_stride",
+            format!("{kept} kept pixels is more than 20 million; raise the stride or lower the resolution"),
+        )?;
         positive(c.distance_m, "camera.distance_m")?;
         check(
             c.tilt_deg.is_finite() && (0.0..=75.0).contains(&c.tilt_deg),

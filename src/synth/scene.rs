@@ -25,6 +25,7 @@ use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
 use crate::spatial::KdIndex;
+use crate::surface::Surface;
 use nalgebra::{Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::Serialize;
 
@@ -324,6 +325,15 @@ pub fn compose(cfg: &SynthConfig) -> Result<Composed> {
         .as_ref()
         .map(|o| fouling::deform(&o.reference, &o.features));
     let object_world = deformed.as_ref().map(|(m, _)| m.transformed(&t_world_reference));
+    let camera = Point3::from(t_world_scan.translation.vector);
+    if let Some(obj) = &object_world
+        && Surface::new(obj)?.contains(&camera)
+    {
+        return Err(Error::input(
+            "config camera.distance_m",
+            "the camera would be inside the object; increase the distance or reduce the tilt",
+        ));
+    }
 
     // Footprint of the object (its vertices at or below the plane, projected into the plane).
     let in_plane = |p: &Point3<f64>| p - up * up.dot(&p.coords);
@@ -375,6 +385,12 @@ pub fn compose(cfg: &SynthConfig) -> Result<Composed> {
     let t_scan_world = t_world_scan.inverse();
     let seabed_mesh = crop_to_view(&seabed.mesh(lo, hi, cfg.seabed.cell_m, silt), cfg, &t_scan_world);
     let seabed_depth = |x: f64, y: f64| seabed.plane_depth(x, y) - seabed.relief(x, y) - silt(x, y);
+    if seabed_depth(camera.x, camera.y) - camera.z < 0.05 {
+        return Err(Error::input(
+            "config camera.distance_m",
+            "the camera would be less than 5 cm above the seabed; increase the distance or reduce the tilt",
+        ));
+    }
 
     // Colour texture: a fine 3-D field modulating every albedo.
     let tint = WaveField::new(
