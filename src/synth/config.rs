@@ -63,8 +63,8 @@ pub struct CameraConfig {
     /// Keep one pixel in `pixel_stride` along rows and columns (depth-map decimation; 3 keeps the
     /// 1280 × 720 scan near 100 000 points, about 2.8 MB of PLY).
     pub pixel_stride: u32,
-    /// Distance from the camera to the target along the optical axis, metres: to the object's
-    /// model origin (bottle) or to the mean seabed plane (sediment).
+    /// Distance from the camera to the target along the optical axis, metres: to the centre of
+    /// the object model's bounding box (bottle) or to the mean seabed plane (sediment).
     pub distance_m: f64,
     /// Angle of the optical axis from the vertical, degrees (0 looks straight down; positive looks
     /// ahead, towards north in the world frame).
