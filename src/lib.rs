@@ -17,5 +17,6 @@ pub mod mesh;
 pub mod output;
 pub mod spatial;
 pub mod surface;
+pub mod synth;
 
 pub use error::{Error, Result};

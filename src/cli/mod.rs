@@ -12,6 +12,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 
 pub mod info;
+pub mod synth;
 
 /// Command-line arguments.
 #[derive(Debug, Parser)]
@@ -37,6 +38,8 @@ pub struct Cli {
 pub enum Command {
     /// What a PLY file holds: points, faces, properties, encoding, bounding box.
     Info(info::InfoArgs),
+    /// A synthetic underwater stereo scan with its ground truth.
+    Synth(synth::SynthArgs),
 }
 
 /// What a command produced.
@@ -87,6 +90,7 @@ pub fn execute(cli: Cli) -> Result<()> {
     };
     let report: Report = match &cli.command {
         Command::Info(args) => info::run(args, &ctx)?,
+        Command::Synth(args) => synth::run(args, &ctx)?,
     };
     if let Some(out) = &report.out {
         out.write_json("summary.json", &report.summary)?;
