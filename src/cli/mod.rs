@@ -5,6 +5,8 @@
 //! that writes files writes them under `--out DIR`, including `summary.json` and the resolved
 //! `config.toml`.
 
+pub mod arm;
+
 use crate::error::Result;
 use crate::output::OutDir;
 use clap::{Parser, Subcommand};
@@ -32,7 +34,10 @@ pub struct Cli {
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
-pub enum Command {}
+pub enum Command {
+    /// Inspect the arm of a model: fk, ik, id, jacobian, mass-matrix.
+    Arm(arm::ArmArgs),
+}
 
 /// What a command produced.
 #[derive(Debug)]
@@ -80,7 +85,9 @@ pub fn execute(cli: Cli) -> Result<()> {
         json: cli.json,
         quiet: cli.quiet,
     };
-    let report: Report = match cli.command {};
+    let report: Report = match &cli.command {
+        Command::Arm(a) => arm::run(a, &ctx)?,
+    };
     if let Some(out) = &report.out {
         out.write_json("summary.json", &report.summary)?;
     }
