@@ -111,8 +111,6 @@ pub struct Multibody {
     pub arm: Arm,
     /// The vehicle as a body (at `C`'s origin).
     pub vehicle: Body,
-    /// Transform from `C` to the arm base `0`.
-    pub mount: Xform,
     /// Gravity, m/s² along +z of the world.
     pub gravity: f64,
     /// Water velocity in the world, m/s.
@@ -136,7 +134,6 @@ impl Multibody {
         model.validate("model")?;
         let arm = Arm::new(&model.arm, &model.environment)?;
         Ok(Multibody {
-            mount: Xform::from_pose(&arm.t_body_base),
             arm,
             vehicle: vehicle_body(&model.vehicle, &model.environment),
             gravity: model.environment.gravity,
@@ -166,7 +163,7 @@ impl Multibody {
             .into_inner();
         let r_6_world =
             xs.x.iter()
-                .fold(self.mount.rot * r_body_world, |acc, x| x.rot * acc);
+                .fold(self.arm.mount.rot * r_body_world, |acc, x| x.rot * acc);
         self.arm
             .tool_wrench_in_flange(&(r_6_world * f.lin), &(r_6_world * f.ang))
     }
@@ -192,17 +189,17 @@ impl Multibody {
         let nu = Motion::from_vector6(&s.nu);
         let nu_dot = Motion::from_vector6(&zeta_dot.fixed_rows::<6>(0).into_owned());
         let base = BaseMotion {
-            velocity: self.mount.motion(&nu),
-            acceleration: self.mount.motion(&nu_dot),
-            gravity: self.mount.rot * k.g_body,
-            current: self.mount.rot * k.c_body,
+            velocity: self.arm.mount.motion(&nu),
+            acceleration: self.arm.mount.motion(&nu_dot),
+            gravity: self.arm.mount.rot * k.g_body,
+            current: self.arm.mount.rot * k.c_body,
         };
         let f6 = self.tool_wrench(s, &k.xs, f_env_on_tool);
         let mut tau = JointVector::zeros();
         let qdd = zeta_dot.fixed_rows::<N_JOINTS>(6).into_owned();
         let f1 = self.arm.rnea(&k.xs, &s.qd, &qdd, &base, &f6, &mut tau, motion);
         let on_vehicle = self.vehicle.wrench(&nu, &nu_dot, &k.g_body, &k.c_body)
-            + self.mount.force_inv(&k.xs.x[0].force_inv(&f1));
+            + self.arm.mount.force_inv(&k.xs.x[0].force_inv(&f1));
         let mut out = GenVector::zeros();
         out.fixed_rows_mut::<6>(0).copy_from(&on_vehicle.to_vector6());
         out.fixed_rows_mut::<N_JOINTS>(6).copy_from(&tau);
@@ -219,12 +216,12 @@ impl Multibody {
         let mut hqq = Matrix6::zeros();
         let mut cols = Matrix6::zeros();
         let arm_in_base = self.arm.crba::<true>(xs, &mut hqq, &mut cols);
-        let hvv: Inertia = self.vehicle.total + self.mount.inertia_inv(&arm_in_base);
+        let hvv: Inertia = self.vehicle.total + self.arm.mount.inertia_inv(&arm_in_base);
         let mut h = GenMatrix::zeros();
         h.fixed_view_mut::<6, 6>(0, 0).copy_from(&hvv.to_matrix6());
         for j in 0..N_JOINTS {
             let col = Force::from_vector6(&cols.column(j).into_owned());
-            let in_body = self.mount.force_inv(&col).to_vector6();
+            let in_body = self.arm.mount.force_inv(&col).to_vector6();
             h.fixed_view_mut::<6, 1>(0, 6 + j).copy_from(&in_body);
             h.fixed_view_mut::<1, 6>(6 + j, 0).copy_from(&in_body.transpose());
             hqq[(j, j)] += self.arm.links[j].armature;
@@ -291,7 +288,7 @@ impl Multibody {
         };
         let nu = Motion::from_vector6(&s.nu);
         let base = BaseMotion {
-            velocity: self.mount.motion(&nu),
+            velocity: self.arm.mount.motion(&nu),
             ..Default::default()
         };
         let mut unused = JointVector::zeros();
@@ -306,7 +303,7 @@ impl Multibody {
         );
         let x_world_body = Xform::from_pose(&s.t_world_body);
         let mut total = x_world_body.force_inv(&self.vehicle.total.mul(&nu));
-        let mut x = x_world_body.then(&self.mount);
+        let mut x = x_world_body.then(&self.arm.mount);
         for i in 0..N_JOINTS {
             x = x.then(&k.xs.x[i]);
             total += x.force_inv(&self.arm.links[i].body.total.mul(&lm.v[i]));

@@ -96,22 +96,29 @@ impl Plant {
             body_wrench: self.thrusters.wrench(),
             f_env_on_tool: input.f_env_on_tool,
         };
-        let acc = self.system.accelerations(&self.state, &u)?;
-        let next = match self.integrator {
+        let (next, acc) = match self.integrator {
             Integrator::Rk4 => {
-                let x = rk4(&pack(&self.state), dt, |x| self.rate(x, &u))?;
-                unpack(&x)
+                let mut first = None;
+                let x = rk4(&pack(&self.state), dt, |x| {
+                    let (rate, acc) = self.rate(x, &u)?;
+                    first.get_or_insert(acc);
+                    Ok::<_, Error>(rate)
+                })?;
+                let acc = first.ok_or_else(|| Error::failed("sim", "RK4 made no evaluation"))?;
+                (unpack(&x), acc)
             }
             Integrator::SemiImplicitEuler => {
+                let acc = self.system.accelerations(&self.state, &u)?;
                 let s = &self.state;
                 let nu = s.nu + acc.nu_dot * dt;
                 let qd = s.qd + acc.qdd * dt;
-                State {
+                let next = State {
                     t_world_body: exp_twist(&s.t_world_body, &nu, dt),
                     nu,
                     q: s.q + qd * dt,
                     qd,
-                }
+                };
+                (next, acc)
             }
         };
         if !next.is_finite() {
@@ -130,8 +137,8 @@ impl Plant {
         })
     }
 
-    /// The rate of the packed state.
-    fn rate(&self, x: &Packed, u: &Inputs) -> Result<Packed> {
+    /// The rate of the packed state, and the accelerations.
+    fn rate(&self, x: &Packed, u: &Inputs) -> Result<(Packed, Accelerations)> {
         let s = unpack_raw(x);
         let acc = self.system.accelerations(&s.0, u)?;
         // The rate of the stage's unnormalised quaternion keeps RK4 a plain vector method.
@@ -142,7 +149,7 @@ impl Plant {
         r.fixed_rows_mut::<N_JOINTS>(7).copy_from(&s.0.qd);
         r.fixed_rows_mut::<6>(7 + N_JOINTS).copy_from(&acc.nu_dot);
         r.fixed_rows_mut::<N_JOINTS>(13 + N_JOINTS).copy_from(&acc.qdd);
-        Ok(r)
+        Ok((r, acc))
     }
 }
 

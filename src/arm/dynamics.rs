@@ -17,7 +17,7 @@
 use super::{Arm, JointVector};
 use crate::model::N_JOINTS;
 use crate::spatial_algebra::{Force, Inertia, Motion, Xform};
-use nalgebra::{Cholesky, Matrix3, Matrix6, Vector3};
+use nalgebra::{Cholesky, Matrix3, Matrix6, UnitQuaternion, Vector3, Vector6};
 
 /// Motion of the arm's base frame 0 and of the water around it, in base-frame coordinates.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -39,6 +39,26 @@ impl BaseMotion {
         BaseMotion {
             gravity,
             ..Default::default()
+        }
+    }
+
+    /// The base of `arm` mounted on a vehicle with attitude `r_world_body`, velocity `nu` and
+    /// acceleration `nu_dot` (`[v; ω]` at `C`'s origin, `C` axes), in a world with gravity `g`
+    /// (m/s², along +z of NED) and water velocity `current_world` (m/s, NED).
+    pub fn on_vehicle(
+        arm: &Arm,
+        r_world_body: &UnitQuaternion<f64>,
+        nu: &Vector6<f64>,
+        nu_dot: &Vector6<f64>,
+        g: f64,
+        current_world: &Vector3<f64>,
+    ) -> Self {
+        let to_base = |w: Vector3<f64>| arm.mount.rot * (r_world_body.inverse() * w);
+        BaseMotion {
+            velocity: arm.mount.motion(&Motion::from_vector6(nu)),
+            acceleration: arm.mount.motion(&Motion::from_vector6(nu_dot)),
+            gravity: to_base(Vector3::new(0.0, 0.0, g)),
+            current: to_base(*current_world),
         }
     }
 }

@@ -72,6 +72,8 @@ pub struct Arm {
     pub links: [Link; N_JOINTS],
     /// Pose of the base frame 0 in the vehicle frame `C`.
     pub t_body_base: Isometry3<f64>,
+    /// The same as a transform from `C` to `0` (built from the exact rotation matrix).
+    pub mount: Xform,
     /// Pose of the tool frame `G` in DH frame 6.
     pub t_flange_tool: Isometry3<f64>,
     /// Velocity scale of the smoothed Coulomb friction, rad/s.
@@ -87,10 +89,15 @@ impl Arm {
         let links = std::array::from_fn(|i| link(&model.links[i], env, model.drag_strips));
         let mount = model::rotation(&model.mount_rotation, "arm.mount_rotation")?;
         let tool = model::rotation(&model.tool.rotation, "arm.tool.rotation")?;
+        let mount_pos = model::vector3(&model.mount_position);
         Ok(Arm {
             links,
+            mount: Xform {
+                rot: mount.matrix().transpose(),
+                pos: mount_pos,
+            },
             t_body_base: Isometry3::from_parts(
-                Translation3::from(model::vector3(&model.mount_position)),
+                Translation3::from(mount_pos),
                 UnitQuaternion::from_rotation_matrix(&mount),
             ),
             t_flange_tool: Isometry3::from_parts(
@@ -129,7 +136,13 @@ impl Arm {
     /// The gravity vector in the base frame when the vehicle is level (NED gravity `g` m/s²
     /// along +z of the world, rotated by the mount).
     pub fn level_gravity(&self, g: f64) -> Vector3<f64> {
-        self.t_body_base.rotation.inverse() * Vector3::new(0.0, 0.0, g)
+        self.mount.rot * Vector3::new(0.0, 0.0, g)
+    }
+
+    /// A wrench in the base frame (about its origin) in the vehicle frame `C` (about `C`'s
+    /// origin), e.g. [`InverseDynamics::wrench_on_base`] as the arm's wrench on the vehicle.
+    pub fn base_wrench_in_body(&self, w: &crate::spatial_algebra::Force) -> crate::spatial_algebra::Force {
+        self.mount.force_inv(w)
     }
 
     /// Whether each joint of `q` is within its limits.
