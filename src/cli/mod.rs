@@ -5,6 +5,8 @@
 //! that writes files writes them under `--out DIR`, including `summary.json` and the resolved
 //! `config.toml`.
 
+pub mod arm;
+
 use crate::error::Result;
 use crate::output::OutDir;
 use clap::{Parser, Subcommand};
@@ -36,6 +38,8 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Inspect the arm of a model: fk, ik, id, jacobian, mass-matrix.
+    Arm(arm::ArmArgs),
     /// What a PLY file holds: points, faces, properties, encoding, bounding box.
     Info(info::InfoArgs),
     /// A synthetic underwater stereo scan with its ground truth.
@@ -89,6 +93,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         quiet: cli.quiet,
     };
     let report: Report = match &cli.command {
+        Command::Arm(a) => arm::run(a, &ctx)?,
         Command::Info(args) => info::run(args, &ctx)?,
         Command::Synth(args) => synth::run(args, &ctx)?,
     };
