@@ -17,5 +17,6 @@ pub mod mesh;
 pub mod output;
 pub mod spatial;
 pub mod surface;
+pub mod trajectory;
 
 pub use error::{Error, Result};

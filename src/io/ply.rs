@@ -8,7 +8,13 @@ use crate::error::{Error, Result};
 use crate::mesh::TriangleMesh;
 use std::io::Write;
 
-fn header(w: &mut dyn Write, vertices: usize, colors: bool, normals: bool, faces: Option<usize>) -> std::io::Result<()> {
+fn header(
+    w: &mut dyn Write,
+    vertices: usize,
+    colors: bool,
+    normals: bool,
+    faces: Option<usize>,
+) -> std::io::Result<()> {
     writeln!(w, "ply\nformat binary_little_endian 1.0\ncomment written by uvms")?;
     writeln!(w, "element vertex {vertices}")?;
     writeln!(w, "property double x\nproperty double y\nproperty double z")?;
@@ -30,7 +36,14 @@ fn header(w: &mut dyn Write, vertices: usize, colors: bool, normals: bool, faces
 /// [`Error::Failed`] if the writer fails.
 pub fn write_cloud(w: &mut dyn Write, cloud: &PointCloud) -> Result<()> {
     let io = |e: std::io::Error| Error::failed("write PLY", e);
-    header(w, cloud.len(), cloud.colors.is_some(), cloud.normals.is_some(), None).map_err(io)?;
+    header(
+        w,
+        cloud.len(),
+        cloud.colors.is_some(),
+        cloud.normals.is_some(),
+        None,
+    )
+    .map_err(io)?;
     let mut buf = Vec::with_capacity(cloud.len() * 51);
     for (i, p) in cloud.points.iter().enumerate() {
         for v in p.coords.iter() {
@@ -66,6 +79,54 @@ pub fn write_mesh(w: &mut dyn Write, mesh: &TriangleMesh) -> Result<()> {
         for &i in t {
             let i = i32::try_from(i).map_err(|_| Error::failed("write PLY", "vertex index exceeds int"))?;
             buf.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+    w.write_all(&buf).map_err(io)
+}
+
+/// Writes a line set as binary little-endian PLY: coloured vertices and an `edge` element
+/// (`vertex1`, `vertex2`), which CloudCompare, MeshLab and Open3D's `read_line_set` display.
+///
+/// # Errors
+/// [`Error::Failed`] if the writer fails, `colors` does not have one entry per point, or an
+/// edge index is out of range.
+pub fn write_lines(
+    w: &mut dyn Write,
+    points: &[nalgebra::Point3<f64>],
+    colors: &[[u8; 3]],
+    edges: &[[u32; 2]],
+) -> Result<()> {
+    let io = |e: std::io::Error| Error::failed("write PLY", e);
+    if colors.len() != points.len() {
+        return Err(Error::failed("write PLY", "one colour per line vertex is needed"));
+    }
+    if edges
+        .iter()
+        .flatten()
+        .any(|&i| i as usize >= points.len() || i > i32::MAX as u32)
+    {
+        return Err(Error::failed("write PLY", "an edge index is out of range"));
+    }
+    write!(
+        w,
+        "ply\nformat binary_little_endian 1.0\ncomment written by uvms\nelement vertex {}\n\
+         property double x\nproperty double y\nproperty double z\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\n\
+         element edge {}\nproperty int vertex1\nproperty int vertex2\nend_header\n",
+        points.len(),
+        edges.len()
+    )
+    .map_err(io)?;
+    let mut buf = Vec::with_capacity(points.len() * 27 + edges.len() * 8);
+    for (p, c) in points.iter().zip(colors) {
+        for v in p.coords.iter() {
+            buf.extend_from_slice(&v.to_le_bytes());
+        }
+        buf.extend_from_slice(c);
+    }
+    for e in edges {
+        for &i in e {
+            buf.extend_from_slice(&(i as i32).to_le_bytes());
         }
     }
     w.write_all(&buf).map_err(io)
