@@ -282,8 +282,8 @@ pub fn plan(input: &PlanInput, config: &PlanConfig) -> Result<Plan> {
     };
     let (samples, spacing) = timing::resample(&path.points, config.timing.spacing())?;
     let points: Vec<Point3<f64>> = samples.iter().map(|p| p.point).collect();
-    let normals: Vec<Vector3<f64>> = samples.iter().map(|p| p.normal).collect();
     let window = (radius / spacing).round().max(1.0) as usize;
+    let normals = tool_frame::smooth_along(&samples.iter().map(|p| p.normal).collect::<Vec<_>>(), window);
     let orientations = tool_frame::tool_frames(
         &points,
         &normals,

@@ -26,7 +26,8 @@
 //! metres, degrees in the configuration.
 
 use super::project::{
-    Facing, Guide, Line, PathPoint, Projector, SmoothSurface, non_negative, positive, project_all,
+    Facing, Guide, Line, PathPoint, Projector, SmoothSurface, bridge_holes, non_negative, positive,
+    project_all,
 };
 use super::{ObjectAxes, PlanInput};
 use crate::error::{Error, Result};
@@ -199,6 +200,9 @@ pub struct PolylineConfig {
     pub standoff_m: f64,
     /// Desired normal force where the file has no `force_n` column, N.
     pub force_n: f64,
+    /// Corners of the polyline are rounded over about this radius (cut at most 40 % into the
+    /// adjacent segments), so the tool never turns on the spot, metres.
+    pub corner_radius_m: f64,
 }
 
 impl Default for PolylineConfig {
@@ -208,6 +212,7 @@ impl Default for PolylineConfig {
             frame: PolylineFrame::Reference,
             standoff_m: 0.05,
             force_n: 60.0,
+            corner_radius_m: 0.005,
         }
     }
 }
@@ -231,6 +236,7 @@ pub fn validate(
         ("line.force_n", line.force_n),
         ("raster.force_n", raster.force_n),
         ("polyline.force_n", poly.force_n),
+        ("polyline.corner_radius_m", poly.corner_radius_m),
     ] {
         non_negative(what, v)?;
     }
@@ -343,31 +349,77 @@ fn fit(
     }
 }
 
-/// Appends `next` to `path`, joined by a connector from `path`'s end to `next`'s start
-/// (`connector(u)` gives the guide at `u ∈ [0, 1]`).
-fn join(
+/// One pass of a boustrophedon: a projected line, the part of it to cover (parameter range,
+/// increasing) and its coordinate across the passes (metres).
+struct Pass {
+    line: Line,
+    range: (f64, f64),
+    cross: f64,
+}
+
+/// Joins passes into one path, alternating their direction. Consecutive passes are linked by a
+/// U-turn of radius `ρ`, half their distance: a cubic Bézier in the pattern's coordinates
+/// (`τ · metric`, `cross`) from the end of one pass to the start of the next, with control
+/// points `4/3 ρ` beyond them (a near-semicircle, radius of curvature ≥ 1.1 ρ). The passes are
+/// shortened by `ρ` at each turn so that the turn's apex reaches the end of the range, and the
+/// turns are projected like the passes. `guide(τ, cross)` gives the guide ray.
+fn boustrophedon(
     ctx: &Context,
-    path: &mut Vec<PathPoint>,
-    next: Vec<PathPoint>,
-    length: f64,
-    connector: &dyn Fn(f64) -> Guide,
+    passes: &[Pass],
+    metric: f64,
+    guide: &dyn Fn(f64, f64) -> Guide,
     force: f64,
-) -> Result<()> {
-    if !path.is_empty() {
-        let n = (length / ctx.projector.config.step_m).ceil().max(1.0) as usize;
-        let guides = (1..n).map(|i| {
-            let u = i as f64 / n as f64;
-            (u, connector(u))
-        });
-        path.extend(project_all(
-            &ctx.projector,
-            guides,
-            force,
-            "connector between rows",
-        )?);
+) -> Result<Vec<PathPoint>> {
+    let rho: Vec<f64> = passes
+        .windows(2)
+        .map(|w| (w[1].cross - w[0].cross).abs() / 2.0)
+        .collect();
+    let mut path: Vec<PathPoint> = Vec::new();
+    let mut previous_end: Option<(f64, f64, f64)> = None;
+    for (j, pass) in passes.iter().enumerate() {
+        let forward = j % 2 == 0;
+        let trim_in = if j > 0 { rho[j - 1] / metric } else { 0.0 };
+        let trim_out = rho.get(j).map_or(0.0, |r| r / metric);
+        let (lo, hi) = if forward {
+            (pass.range.0 + trim_in, pass.range.1 - trim_out)
+        } else {
+            (pass.range.0 + trim_out, pass.range.1 - trim_in)
+        };
+        if hi <= lo {
+            return Err(Error::failed(
+                "plan",
+                format!(
+                    "pass {j} of the pattern is shorter than the distance between passes; lengthen it or bring the passes closer"
+                ),
+            ));
+        }
+        let line = &pass.line;
+        let mut pts = line.between(line.arc_at_tau(lo), line.arc_at_tau(hi));
+        if !forward {
+            pts.reverse();
+        }
+        let (start, end) = if forward { (lo, hi) } else { (hi, lo) };
+        if let Some((t0, c0, r)) = previous_end {
+            // Beyond the previous pass's end, in its direction of motion.
+            let dir = if forward { -1.0 } else { 1.0 };
+            let lambda = 4.0 / 3.0 * r;
+            let (x0, x3) = (t0 * metric, start * metric);
+            let (x1, x2) = (x0 + dir * lambda, x3 + dir * lambda);
+            let c1 = pass.cross;
+            let n = ((1.6 * std::f64::consts::PI * r / ctx.projector.config.step_m).ceil() as usize).max(2);
+            let guides = (1..n).map(|i| {
+                let u = i as f64 / n as f64;
+                let v = 1.0 - u;
+                let x = v * v * v * x0 + 3.0 * v * v * u * x1 + 3.0 * v * u * u * x2 + u * u * u * x3;
+                let c = c0 + (c1 - c0) * (3.0 * u * u - 2.0 * u * u * u);
+                (x / metric, guide(x / metric, c))
+            });
+            path.extend(project_all(&ctx.projector, guides, force, "turn between passes")?);
+        }
+        path.extend(pts);
+        previous_end = rho.get(j).map(|&r| (end, pass.cross, r));
     }
-    path.extend(next);
-    Ok(())
+    Ok(path)
 }
 
 /// The ring pattern.
@@ -452,24 +504,17 @@ pub fn ring(ctx: &Context, cfg: &RingConfig) -> Result<PatternPath> {
             "the passes of the ring band share no scanned arc".to_string(),
         ));
     }
-    let mut path = Vec::new();
-    for (j, (line, &s)) in lines.iter().zip(&stations).enumerate() {
-        let mut pts = line.between(line.arc_at_tau(range.0), line.arc_at_tau(range.1));
-        // Odd passes run backwards; each pass starts at the angle where the previous one ended.
-        let th = if j % 2 == 1 { range.1 } else { range.0 };
-        if j % 2 == 1 {
-            pts.reverse();
-        }
-        let prev = if j > 0 { stations[j - 1] } else { s };
-        join(
-            ctx,
-            &mut path,
-            pts,
-            (s - prev).abs(),
-            &|u| guide(prev + (s - prev) * u, th),
-            cfg.force_n,
-        )?;
-    }
+    let passes: Vec<Pass> = lines
+        .into_iter()
+        .zip(&stations)
+        .map(|(line, &s)| Pass {
+            line,
+            range,
+            cross: s,
+        })
+        .collect();
+    let mut path = boustrophedon(ctx, &passes, metric, &|th, s| guide(s, th), cfg.force_n)?;
+    bridge_holes(&mut path, ctx.reference);
     Ok(PatternPath {
         points: path,
         rows: n,
@@ -537,8 +582,7 @@ pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
     )?;
     let (n, spacing) = passes(s_hi - s_lo, cfg.spacing_m);
     let n = if s_hi - s_lo <= 0.0 { 1 } else { n };
-    let mut path: Vec<PathPoint> = Vec::new();
-    let mut last: Option<(f64, f64)> = None;
+    let mut passes = Vec::with_capacity(n);
     for j in 0..n {
         let v = transect.at(s_lo + j as f64 * spacing).tau;
         let tu = |u: f64| guide(u, v);
@@ -554,23 +598,15 @@ pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
             )
         })?;
         clipped |= cl;
-        let mut pts = row.between(a, b);
-        if j % 2 == 1 {
-            pts.reverse();
-        }
-        let (u0, u1) = (pts[0].tau, pts[pts.len() - 1].tau);
-        let (pu, pv) = last.unwrap_or((u0, v));
-        let length = ((u0 - pu).powi(2) + (v - pv).powi(2)).sqrt();
-        join(
-            ctx,
-            &mut path,
-            pts,
-            length,
-            &|t| guide(pu + (u0 - pu) * t, pv + (v - pv) * t),
-            f,
-        )?;
-        last = Some((u1, v));
+        let range = (row.at(a).tau, row.at(b).tau);
+        passes.push(Pass {
+            line: row,
+            range,
+            cross: v,
+        });
     }
+    let mut path = boustrophedon(ctx, &passes, 1.0, &|u, v| guide(u, v), f)?;
+    bridge_holes(&mut path, ctx.reference);
     Ok(PatternPath {
         points: path,
         rows: n,
@@ -723,6 +759,7 @@ pub fn line(ctx: &Context, cfg: &LineConfig) -> Result<PatternPath> {
     let mut clipped = false;
     if seabed.is_some() {
         check_holes(&points, config.max_hole_m, "line")?;
+        bridge_holes(&mut points, &plane_surface);
         (points, clipped) = trim_to_scan(points, config.clip, "line")?;
     }
     for p in &mut points {
@@ -796,6 +833,62 @@ pub fn read_polyline(path: &Path) -> Result<Vec<(Point3<f64>, Option<f64>)>> {
     Ok(out)
 }
 
+/// A polyline densified to `step` with its corners rounded: each interior vertex is replaced by
+/// a quadratic Bézier from `t` before it to `t` after it along the adjacent segments. For a turn
+/// of `φ` its tightest radius of curvature (at the apex) is `t cos(φ/2) / tan(φ/2)`, so
+/// `t = radius · sin(φ/2) / cos²(φ/2)` gives `radius`; `t` is capped at 40 % of the adjacent
+/// segments. Forces are interpolated along the segments and held over a corner.
+fn rounded_polyline(points: &[(Point3<f64>, f64)], radius: f64, step: f64) -> Vec<(Point3<f64>, f64)> {
+    let mut pts: Vec<(Point3<f64>, f64)> = Vec::with_capacity(points.len());
+    for &(p, f) in points {
+        if pts.last().is_none_or(|(q, _)| (p - q).norm() > 1e-9) {
+            pts.push((p, f));
+        }
+    }
+    let n = pts.len();
+    let cut: Vec<f64> = (0..n)
+        .map(|i| {
+            if i == 0 || i + 1 == n {
+                return 0.0;
+            }
+            let (a, b, c) = (pts[i - 1].0, pts[i].0, pts[i + 1].0);
+            let phi = (b - a).angle(&(c - b));
+            if phi < 1e-6 {
+                return 0.0;
+            }
+            let limit = 0.4 * (b - a).norm().min((c - b).norm());
+            let half = phi / 2.0;
+            (radius * half.sin() / half.cos().powi(2)).min(limit)
+        })
+        .collect();
+    let mut out: Vec<(Point3<f64>, f64)> = pts.first().copied().into_iter().collect();
+    for i in 0..n.saturating_sub(1) {
+        let ((a, fa), (b, fb)) = (pts[i], pts[i + 1]);
+        let len = (b - a).norm();
+        let d = (b - a) / len;
+        let (s0, s1) = (cut[i], len - cut[i + 1]);
+        let m = ((s1 - s0) / step).ceil().max(1.0) as usize;
+        for k in 1..=m {
+            let s = s0 + (s1 - s0) * k as f64 / m as f64;
+            out.push((a + d * s, fa + (fb - fa) * s / len));
+        }
+        if cut[i + 1] > 0.0 {
+            let c = pts[i + 2].0;
+            let (p, q) = (b - d * cut[i + 1], b + (c - b).normalize() * cut[i + 1]);
+            let m = ((2.0 * cut[i + 1] / step).ceil() as usize).max(2);
+            for k in 1..=m {
+                let u = k as f64 / m as f64;
+                let v = 1.0 - u;
+                out.push((
+                    Point3::from(p.coords * (v * v) + b.coords * (2.0 * u * v) + q.coords * (u * u)),
+                    fb,
+                ));
+            }
+        }
+    }
+    out
+}
+
 /// The polyline pattern.
 ///
 /// # Errors
@@ -821,27 +914,27 @@ pub fn polyline(ctx: &Context, cfg: &PolylineConfig) -> Result<PatternPath> {
     let step = ctx.projector.config.step_m;
     let mut guides = Vec::new();
     let mut tau = 0.0;
-    for (k, w) in pts.windows(2).enumerate() {
-        let ((a, fa), (b, fb)) = (w[0], w[1]);
-        let len = (b - a).norm();
-        let n = (len / step).ceil().max(1.0) as usize;
-        let last = k + 2 == pts.len();
-        for i in 0..n + usize::from(last) {
-            let u = i as f64 / n as f64;
-            let p = a + (b - a) * u;
-            let q = ctx.reference.project(&p);
-            let (normal, _) = ctx.reference.local_plane(&q.point, &q.normal);
-            guides.push((
-                tau + len * u,
-                fa + (fb - fa) * u,
-                Guide {
-                    origin: q.point + normal * cfg.standoff_m,
-                    dir: -normal,
-                    reach: 2.0 * cfg.standoff_m,
-                },
-            ));
+    let mut previous: Option<Point3<f64>> = None;
+    for (p, f) in rounded_polyline(&pts, cfg.corner_radius_m, step) {
+        if let Some(q) = previous {
+            tau += (p - q).norm();
         }
-        tau += len;
+        previous = Some(p);
+        // The ray starts `standoff` outside the reference along its smoothed normal. Both are
+        // taken at `p` itself (the normal and the distance vary continuously along the path; the
+        // closest point jumps across the edges of a faceted model).
+        let q = ctx.reference.project(&p);
+        let (normal, _) = ctx.reference.local_plane(&p, &q.normal);
+        let back = cfg.standoff_m + q.distance;
+        guides.push((
+            tau,
+            f,
+            Guide {
+                origin: p + normal * back,
+                dir: -normal,
+                reach: 2.0 * back,
+            },
+        ));
     }
     let mut points = project_all(
         &ctx.projector,
@@ -854,6 +947,7 @@ pub fn polyline(ctx: &Context, cfg: &PolylineConfig) -> Result<PatternPath> {
     }
     let config = ctx.projector.config;
     check_holes(&points, config.max_hole_m, "polyline")?;
+    bridge_holes(&mut points, ctx.reference);
     let (points, clipped) = trim_to_scan(points, config.clip, "polyline")?;
     Ok(PatternPath {
         points,

@@ -11,8 +11,8 @@
 //! Normals are smoothed so that stereo noise does not shake the tool: the surface is sampled
 //! (one sample per triangle, or a low-discrepancy set of about one sample per (radius / 2)² on
 //! larger triangles), every sample carries its share of its triangle's area and its unit normal, and the normal
-//! at a point is the Gaussian-weighted (σ = radius / 2) sum of the sample normals within the
-//! radius — the area-weighted vertex normal of the classic mesh-smoothing literature, averaged
+//! at a point is the sum of the sample normals within the radius weighted by the smooth,
+//! compactly supported kernel `(1 - d²/r²)²` — the area-weighted vertex normal of the classic mesh-smoothing literature, averaged
 //! over a ball. The same weights give a local centroid; with `smooth_positions` the point is
 //! moved along the smoothed normal onto the plane through that centroid (one step of a
 //! moving-least-squares projection, Alexa et al. 2003), by at most `tolerance_m`, so the path
@@ -57,9 +57,9 @@ impl Default for ProjectionConfig {
     fn default() -> Self {
         ProjectionConfig {
             step_m: 0.0005,
-            smoothing_radius_m: 0.01,
+            smoothing_radius_m: 0.015,
             smooth_positions: true,
-            tolerance_m: 0.002,
+            tolerance_m: 0.005,
             clip: false,
             max_hole_m: 0.05,
         }
@@ -142,7 +142,7 @@ impl SmoothSurface {
     /// [`Error::Input`] for a mesh without triangles, with a bad index or a non-finite vertex.
     pub fn new(mesh: &TriangleMesh, facing: Facing, radius: f64) -> Result<Self> {
         let surface = Surface::new(mesh)?;
-        // About one sample per (radius / 2)² of area: the Gaussian's σ.
+        // About one sample per (radius / 2)² of area.
         let h = radius / 2.0;
         let mut samples = Vec::with_capacity(mesh.triangles.len());
         let mut weighted_normals = Vec::with_capacity(mesh.triangles.len());
@@ -201,11 +201,12 @@ impl SmoothSurface {
         p: &Point3<f64>,
         fallback: &Vector3<f64>,
     ) -> (Vector3<f64>, Option<Point3<f64>>) {
-        // Gaussian weight exp(-d² / 2σ²) with σ = radius / 2.
-        let inv = 2.0 / (self.radius * self.radius);
+        // A smooth kernel with compact support, (1 - d²/r²)²: points entering or leaving the
+        // ball carry no weight, so the result varies smoothly along the path.
+        let inv = 1.0 / (self.radius * self.radius);
         let (mut n, mut c, mut wsum) = (Vector3::zeros(), Vector3::zeros(), 0.0);
         self.index.within_visit(p, self.radius, |nb| {
-            let g = (-(nb.distance * nb.distance) * inv).exp();
+            let g = (1.0 - nb.distance * nb.distance * inv).max(0.0).powi(2);
             let wn = self.weighted_normals[nb.index] * g;
             let w = wn.norm();
             n += wn;
@@ -441,6 +442,50 @@ impl Line {
         );
         out.push(self.at(b));
         out
+    }
+}
+
+/// Moves the points that lie on the fallback surface (holes in the scan) by the offset between
+/// the scan and the fallback surface at the hole's borders, interpolated along the path, so the
+/// path stays continuous across a hole: the fallback surface gives the shape, the scan around
+/// the hole the level (fouling, deformation, residual misalignment). A run touching one end of
+/// the path takes its one border's offset; a path without scanned points is left as it is.
+pub fn bridge_holes(points: &mut [PathPoint], fallback: &SmoothSurface) {
+    let offset = |p: &PathPoint| {
+        let q = fallback.project(&p.point);
+        let (n, _) = fallback.local_plane(&q.point, &q.normal);
+        (p.point - q.point).dot(&n)
+    };
+    let n = points.len();
+    let mut i = 0;
+    while i < n {
+        if !points[i].fallback {
+            i += 1;
+            continue;
+        }
+        let start = i;
+        while i < n && points[i].fallback {
+            i += 1;
+        }
+        let before = start.checked_sub(1).map(|k| offset(&points[k]));
+        let after = (i < n).then(|| offset(&points[i]));
+        // Arc length across the run, from the border before it to the border after it.
+        let first = start.saturating_sub(1);
+        let last = i.min(n - 1);
+        let mut arc = vec![0.0; last - first + 1];
+        for k in first + 1..=last {
+            arc[k - first] = arc[k - first - 1] + (points[k].point - points[k - 1].point).norm();
+        }
+        let total = arc[arc.len() - 1];
+        for k in start..i {
+            let d = match (before, after) {
+                (Some(a), Some(b)) if total > 0.0 => a + (b - a) * arc[k - first] / total,
+                (Some(a), _) => a,
+                (None, Some(b)) => b,
+                (None, None) => 0.0,
+            };
+            points[k].point += points[k].normal * d;
+        }
     }
 }
 

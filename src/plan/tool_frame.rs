@@ -79,6 +79,23 @@ pub fn tool_frame(
     frame * Rotation3::from_axis_angle(&Vector3::y_axis(), service_angle)
 }
 
+/// Normals smoothed along the path: a triangular window of `±window` samples (weights
+/// `window + 1 - |j - i|`), renormalised. On top of the smoothing over the surface this
+/// removes the remaining sample-to-sample jitter of the tool axis.
+pub fn smooth_along(normals: &[Vector3<f64>], window: usize) -> Vec<Vector3<f64>> {
+    let n = normals.len();
+    (0..n)
+        .map(|i| {
+            let lo = i.saturating_sub(window);
+            let hi = (i + window).min(n.saturating_sub(1));
+            let sum: Vector3<f64> = (lo..=hi)
+                .map(|j| normals[j] * (window + 1 - j.abs_diff(i)) as f64)
+                .sum();
+            sum.try_normalize(1e-300).unwrap_or(normals[i])
+        })
+        .collect()
+}
+
 /// Tool orientations along a path sampled at uniform spacing: tangents by central differences
 /// over `±window` samples, frames by [`tool_frame`], quaternion signs kept continuous.
 pub fn tool_frames(
