@@ -18,6 +18,7 @@ pub mod output;
 pub mod plan;
 pub mod spatial;
 pub mod surface;
+pub mod synth;
 pub mod trajectory;
 
 pub use error::{Error, Result};
