@@ -261,8 +261,11 @@ pub fn plan(input: &PlanInput, config: &PlanConfig) -> Result<Plan> {
         ));
     }
     let radius = config.projection.smoothing_radius_m;
-    let scan = SmoothSurface::new(input.scan_surface, Facing::Toward(input.viewpoint), radius)?;
-    let reference = SmoothSurface::new(input.reference, Facing::Winding, radius)?;
+    let (scan, reference) = rayon::join(
+        || SmoothSurface::new(input.scan_surface, Facing::Toward(input.viewpoint), radius),
+        || SmoothSurface::new(input.reference, Facing::Winding, radius),
+    );
+    let (scan, reference) = (scan?, reference?);
     let t_world_scan = config.frames.t_world_scan();
     let ctx = Context {
         input,

@@ -34,6 +34,7 @@ use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
 use nalgebra::{Point3, Rotation3, Unit, Vector3};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -582,29 +583,28 @@ pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
     )?;
     let (n, spacing) = passes(s_hi - s_lo, cfg.spacing_m);
     let n = if s_hi - s_lo <= 0.0 { 1 } else { n };
-    let mut passes = Vec::with_capacity(n);
-    for j in 0..n {
-        let v = transect.at(s_lo + j as f64 * spacing).tau;
-        let tu = |u: f64| guide(u, v);
-        let centre = ctx
-            .projector
-            .cast(&tu(0.0), 0.0, f)
-            .ok_or_else(|| miss_error("raster row"))?;
-        let row = walk_line(&tu, centre, cfg.width_m / 2.0);
-        let ((a, b), cl) = fit((-cfg.width_m / 2.0, cfg.width_m / 2.0), row.scanned, clip, || {
-            format!(
-                "row {j} of the raster ({:.3} m long) exceeds the scanned surface ({:.3} m to {:.3} m about its centre)",
-                cfg.width_m, row.scanned.0, row.scanned.1
-            )
-        })?;
-        clipped |= cl;
-        let range = (row.at(a).tau, row.at(b).tau);
-        passes.push(Pass {
-            line: row,
-            range,
-            cross: v,
-        });
-    }
+    // Rows are independent once the transect has placed them: walk them in parallel.
+    let rows: Vec<(Pass, bool)> = (0..n)
+        .into_par_iter()
+        .map(|j| {
+            let v = transect.at(s_lo + j as f64 * spacing).tau;
+            let tu = |u: f64| guide(u, v);
+            let centre = ctx.projector.cast(&tu(0.0), 0.0, f).ok_or_else(|| miss_error("raster row"))?;
+            let row = walk_line(&tu, centre, cfg.width_m / 2.0);
+            let ((a, b), cl) = fit((-cfg.width_m / 2.0, cfg.width_m / 2.0), row.scanned, clip, || {
+                format!(
+                    "row {j} of the raster ({:.3} m long) exceeds the scanned surface ({:.3} m to {:.3} m about its centre)",
+                    cfg.width_m, row.scanned.0, row.scanned.1
+                )
+            })?;
+            let range = (row.at(a).tau, row.at(b).tau);
+            Ok((Pass { line: row, range, cross: v }, cl))
+        })
+        .collect::<Vec<Result<_>>>()
+        .into_iter()
+        .collect::<Result<_>>()?; // the first failing row, whatever the threads did
+    clipped |= rows.iter().any(|r| r.1);
+    let passes: Vec<Pass> = rows.into_iter().map(|r| r.0).collect();
     let mut path = boustrophedon(ctx, &passes, 1.0, &|u, v| guide(u, v), f)?;
     bridge_holes(&mut path, ctx.reference);
     Ok(PatternPath {
