@@ -14,7 +14,7 @@ use uvms::frames::Pose;
 use uvms::plan::fixtures::{Cylinder, ScanSpec};
 use uvms::plan::patterns::PatternKind;
 use uvms::plan::project::{Facing, SmoothSurface};
-use uvms::plan::{ObjectAxes, PlanConfig, PlanInput, plan};
+use uvms::plan::{ObjectAxes, ObjectInput, PlanConfig, PlanInput, plan};
 
 fn bench(c: &mut Criterion) {
     let cylinder = Cylinder {
@@ -26,10 +26,12 @@ fn bench(c: &mut Criterion) {
     let scan = cylinder.scan(&ScanSpec::default());
     let reference = cylinder.mesh(128, 8);
     let input = PlanInput {
-        scan_surface: &scan,
-        reference: &reference,
-        t_scan_reference: Pose::identity(),
-        axes: ObjectAxes::from_mesh(&reference).expect("reference"),
+        object: Some(ObjectInput {
+            scan_surface: &scan,
+            reference: &reference,
+            t_scan_reference: Pose::identity(),
+            axes: ObjectAxes::from_mesh(&reference).expect("reference"),
+        }),
         viewpoint: Point3::origin(),
         seabed_plane: None,
         seabed_surface: None,

@@ -9,7 +9,7 @@ use proptest::test_runner::{Config, RngSeed};
 use uvms::frames::Pose;
 use uvms::plan::fixtures::{Cylinder, ScanSpec};
 use uvms::plan::patterns::{PatternKind, RowDirection};
-use uvms::plan::{ObjectAxes, PlanConfig, PlanInput, plan};
+use uvms::plan::{ObjectAxes, ObjectInput, PlanConfig, PlanInput, plan};
 use uvms::surface::Surface;
 use uvms::trajectory::{Phase, Trajectory};
 
@@ -114,10 +114,12 @@ proptest! {
         prop_assume!(scan.triangles.len() > 100);
         let reference = case.cylinder.mesh(96, 6);
         let input = PlanInput {
-            scan_surface: &scan,
-            reference: &reference,
-            t_scan_reference: Pose::identity(),
-            axes: ObjectAxes::from_mesh(&reference).unwrap(),
+            object: Some(ObjectInput {
+                scan_surface: &scan,
+                reference: &reference,
+                t_scan_reference: Pose::identity(),
+                axes: ObjectAxes::from_mesh(&reference).unwrap(),
+            }),
             viewpoint: Point3::origin(),
             seabed_plane: None,
             seabed_surface: None,

@@ -7,7 +7,7 @@ use uvms::frames::Pose;
 use uvms::mesh::TriangleMesh;
 use uvms::plan::fixtures::{Cylinder, RippledPlane, ScanSpec, Truth, with_hole};
 use uvms::plan::patterns::{PatternKind, PolylineFrame, RowDirection};
-use uvms::plan::{ObjectAxes, Plan, PlanConfig, PlanInput, plan};
+use uvms::plan::{ObjectAxes, ObjectInput, Plan, PlanConfig, PlanInput, plan};
 use uvms::trajectory::{Phase, Sample, Trajectory};
 
 /// A bottle-sized cylinder lying across the view 1 m in front of the camera.
@@ -45,10 +45,12 @@ impl Scene {
 
     fn input(&self) -> PlanInput<'_> {
         PlanInput {
-            scan_surface: &self.scan,
-            reference: &self.reference,
-            t_scan_reference: self.t_scan_reference,
-            axes: ObjectAxes::from_mesh(&self.reference).unwrap(),
+            object: Some(ObjectInput {
+                scan_surface: &self.scan,
+                reference: &self.reference,
+                t_scan_reference: self.t_scan_reference,
+                axes: ObjectAxes::from_mesh(&self.reference).unwrap(),
+            }),
             viewpoint: Point3::origin(),
             seabed_plane: self.seabed_plane,
             seabed_surface: self.seabed.as_ref(),
@@ -338,6 +340,24 @@ fn line_along_the_seabed_at_depth() {
     for s in p.trajectory.phase(Phase::Contact) {
         assert!((in_scan(&cfg, s).0.z - 1.195).abs() < 1e-9);
     }
+    // Without an object (a sediment patch), the line is centred where the optical axis meets the
+    // seabed and runs along the image's x axis, here turned by 90°.
+    cfg.line.heading_deg = 90.0;
+    let input = PlanInput {
+        object: None,
+        ..scene.input()
+    };
+    let p = plan(&input, &cfg).unwrap();
+    let pts: Vec<Point3<f64>> = p
+        .trajectory
+        .phase(Phase::Contact)
+        .map(|s| in_scan(&cfg, s).0)
+        .collect();
+    assert!(pts.iter().all(|q| q.x.abs() < 1e-9 && (q.z - 1.195).abs() < 1e-9));
+    assert!((pts[0].y - pts[pts.len() - 1].y).abs() > 0.299);
+    assert!(p.report.object_axes.is_none());
+    // The ring needs the object: a usage error.
+    assert_eq!(plan(&input, &PlanConfig::default()).unwrap_err().exit_code(), 2);
 }
 
 #[test]
@@ -411,7 +431,9 @@ fn clear_errors() {
     // A scan with no object.
     let empty = TriangleMesh::default();
     let mut input = scene.input();
-    input.scan_surface = &empty;
+    if let Some(o) = input.object.as_mut() {
+        o.scan_surface = &empty;
+    }
     fails(&PlanConfig::default(), &input, "no object surface");
     // A band wider than the surface: the camera saw ~140° of the ring, a raster row longer than
     // the scanned width, a ring band longer than the bottle.

@@ -32,7 +32,9 @@ use crate::mesh::TriangleMesh;
 use crate::output::OutDir;
 use crate::trajectory::{Phase, Trajectory};
 use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
-use patterns::{Context, LineConfig, PatternKind, PatternPath, PolylineConfig, RasterConfig, RingConfig};
+use patterns::{
+    Context, LineConfig, ObjectContext, PatternKind, PatternPath, PolylineConfig, RasterConfig, RingConfig,
+};
 use project::{Facing, ProjectionConfig, Projector, SmoothSurface};
 use serde::{Deserialize, Serialize};
 use timing::TimingConfig;
@@ -159,9 +161,9 @@ impl ObjectAxes {
     }
 }
 
-/// What the planner works on; everything in the scan frame `S`, metres.
+/// The object the ring, raster and polyline patterns are planned on; scan frame `S`, metres.
 #[derive(Debug, Clone, Copy)]
-pub struct PlanInput<'a> {
+pub struct ObjectInput<'a> {
     /// The triangulated surface of the scanned object.
     pub scan_surface: &'a TriangleMesh,
     /// The reference mesh aligned to the scan (already mapped by `t_scan_reference`).
@@ -170,7 +172,15 @@ pub struct PlanInput<'a> {
     pub t_scan_reference: Pose,
     /// The aligned reference's centre, longitudinal axis and extent.
     pub axes: ObjectAxes,
-    /// The camera centre (the origin for a scan in the camera frame).
+}
+
+/// What the planner works on; everything in the scan frame `S`, metres.
+#[derive(Debug, Clone, Copy)]
+pub struct PlanInput<'a> {
+    /// The object; only the line pattern can do without (a sediment patch to sample).
+    pub object: Option<ObjectInput<'a>>,
+    /// The camera centre (the origin for a scan in the camera frame, whose z axis is the
+    /// optical axis).
     pub viewpoint: Point3<f64>,
     /// The seabed plane `[a, b, c, d]` (unit normal towards the camera, `ax + by + cz + d = 0`);
     /// needed by the line pattern.
@@ -218,8 +228,8 @@ pub struct PlanReport {
     pub frame: &'static str,
     /// `t_world_scan` used, 4×4 row-major.
     pub t_world_scan: [[f64; 4]; 4],
-    /// The object's principal axes in the scan frame.
-    pub object_axes: ObjectAxes,
+    /// The object's principal axes in the scan frame (none without an object).
+    pub object_axes: Option<ObjectAxes>,
 }
 
 /// A planned trajectory and its diagnostics.
@@ -254,27 +264,36 @@ impl Plan {
 /// wider than the scanned surface (unless clipped).
 pub fn plan(input: &PlanInput, config: &PlanConfig) -> Result<Plan> {
     config.validate()?;
-    if input.scan_surface.triangles.is_empty() {
-        return Err(Error::failed(
-            "plan",
-            "the scan holds no object surface (no triangles)",
-        ));
-    }
     let radius = config.projection.smoothing_radius_m;
-    let (scan, reference) = rayon::join(
-        || SmoothSurface::new(input.scan_surface, Facing::Toward(input.viewpoint), radius),
-        || SmoothSurface::new(input.reference, Facing::Winding, radius),
-    );
-    let (scan, reference) = (scan?, reference?);
+    let surfaces = match &input.object {
+        Some(obj) => {
+            if obj.scan_surface.triangles.is_empty() {
+                return Err(Error::failed(
+                    "plan",
+                    "the scan holds no object surface (no triangles)",
+                ));
+            }
+            let (scan, reference) = rayon::join(
+                || SmoothSurface::new(obj.scan_surface, Facing::Toward(input.viewpoint), radius),
+                || SmoothSurface::new(obj.reference, Facing::Winding, radius),
+            );
+            Some((obj, scan?, reference?))
+        }
+        None => None,
+    };
     let t_world_scan = config.frames.t_world_scan();
     let ctx = Context {
         input,
-        projector: Projector {
-            primary: &scan,
-            fallback: Some(&reference),
-            config: &config.projection,
-        },
-        reference: &reference,
+        projection: &config.projection,
+        object: surfaces.as_ref().map(|(obj, scan, reference)| ObjectContext {
+            input: obj,
+            projector: Projector {
+                primary: scan,
+                fallback: Some(reference),
+                config: &config.projection,
+            },
+            reference,
+        }),
         t_world_scan,
     };
     let path: PatternPath = match config.pattern {
@@ -335,7 +354,7 @@ pub fn plan(input: &PlanInput, config: &PlanConfig) -> Result<Plan> {
         force_max_n: contact.iter().map(|s| s.force).fold(0.0, f64::max),
         frame: "W",
         t_world_scan: pose_to_rows(&t_world_scan),
-        object_axes: input.axes,
+        object_axes: input.object.map(|o| o.axes),
     };
     Ok(Plan { trajectory, report })
 }

@@ -26,10 +26,10 @@
 //! metres, degrees in the configuration.
 
 use super::project::{
-    Facing, Guide, Line, PathPoint, Projector, SmoothSurface, bridge_holes, non_negative, positive,
-    project_all,
+    Facing, Guide, Line, PathPoint, ProjectionConfig, Projector, SmoothSurface, bridge_holes, non_negative,
+    positive, project_all,
 };
-use super::{ObjectAxes, PlanInput};
+use super::{ObjectAxes, ObjectInput, PlanInput};
 use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
@@ -287,12 +287,39 @@ pub struct PatternPath {
 pub struct Context<'a> {
     /// The planner's input.
     pub input: &'a PlanInput<'a>,
+    /// Projection settings.
+    pub projection: &'a ProjectionConfig,
+    /// The object's surfaces prepared for queries, when there is an object.
+    pub object: Option<ObjectContext<'a>>,
+    /// World pose of the scan frame.
+    pub t_world_scan: Pose,
+}
+
+/// The object's surfaces prepared for the patterns.
+pub struct ObjectContext<'a> {
+    /// The object as given.
+    pub input: &'a ObjectInput<'a>,
     /// Projection onto the scan with fallback to the reference.
     pub projector: Projector<'a>,
     /// The aligned reference, prepared for queries.
     pub reference: &'a SmoothSurface,
-    /// World pose of the scan frame.
-    pub t_world_scan: Pose,
+}
+
+impl Context<'_> {
+    /// The object, which `pattern` needs.
+    ///
+    /// # Errors
+    /// [`Error::Input`] when the input has no object.
+    fn object(&self, pattern: &str) -> Result<&ObjectContext<'_>> {
+        self.object.as_ref().ok_or_else(|| {
+            Error::input(
+                "pattern",
+                format!(
+                    "the {pattern} pattern needs the object: its scanned surface and the aligned reference"
+                ),
+            )
+        })
+    }
 }
 
 /// Number of passes covering `width` with at most `spacing` between them, and their spacing.
@@ -365,7 +392,7 @@ struct Pass {
 /// shortened by `ρ` at each turn so that the turn's apex reaches the end of the range, and the
 /// turns are projected like the passes. `guide(τ, cross)` gives the guide ray.
 fn boustrophedon(
-    ctx: &Context,
+    projector: &Projector,
     passes: &[Pass],
     metric: f64,
     guide: &dyn Fn(f64, f64) -> Guide,
@@ -407,7 +434,7 @@ fn boustrophedon(
             let (x0, x3) = (t0 * metric, start * metric);
             let (x1, x2) = (x0 + dir * lambda, x3 + dir * lambda);
             let c1 = pass.cross;
-            let n = ((1.6 * std::f64::consts::PI * r / ctx.projector.config.step_m).ceil() as usize).max(2);
+            let n = ((1.6 * std::f64::consts::PI * r / projector.config.step_m).ceil() as usize).max(2);
             let guides = (1..n).map(|i| {
                 let u = i as f64 / n as f64;
                 let v = 1.0 - u;
@@ -415,7 +442,7 @@ fn boustrophedon(
                 let c = c0 + (c1 - c0) * (3.0 * u * u - 2.0 * u * u * u);
                 (x / metric, guide(x / metric, c))
             });
-            path.extend(project_all(&ctx.projector, guides, force, "turn between passes")?);
+            path.extend(project_all(projector, guides, force, "turn between passes")?);
         }
         path.extend(pts);
         previous_end = rho.get(j).map(|&r| (end, pass.cross, r));
@@ -429,7 +456,9 @@ fn boustrophedon(
 /// [`Error::Failed`] if the ring misses the object, the scanned arc is too short, or the band is
 /// wider than the surface (unless clipped).
 pub fn ring(ctx: &Context, cfg: &RingConfig) -> Result<PatternPath> {
-    let ax: &ObjectAxes = &ctx.input.axes;
+    let obj = ctx.object("ring")?;
+    let pj = &obj.projector;
+    let ax: &ObjectAxes = &obj.input.axes;
     let a = ax.axis;
     let r_out = ax.radius + RAY_CLEARANCE;
     let (n, spacing) = passes(cfg.width_m, cfg.spacing_m);
@@ -447,17 +476,17 @@ pub fn ring(ctx: &Context, cfg: &RingConfig) -> Result<PatternPath> {
             reach: r_out,
         }
     };
-    let metric = ax.radius.max(ctx.projector.config.step_m);
+    let metric = ax.radius.max(pj.config.step_m);
     let half = cfg.arc_deg.to_radians() / 2.0;
-    let clip = ctx.projector.config.clip;
+    let clip = pj.config.clip;
     let mut lines = Vec::with_capacity(n);
     let mut range = (-PI, PI);
     let mut clipped = false;
     for &s in &stations {
         let family = |th: f64| guide(s, th);
-        let Some(centre) = ctx.projector.cast(&family(0.0), 0.0, cfg.force_n) else {
+        let Some(centre) = pj.cast(&family(0.0), 0.0, cfg.force_n) else {
             return Err(
-                if n > 1 && ctx.projector.cast(&guide(cfg.station_m, 0.0), 0.0, 0.0).is_some() {
+                if n > 1 && pj.cast(&guide(cfg.station_m, 0.0), 0.0, 0.0).is_some() {
                     band_error(format!("the ring's pass at station {s:.3} m is off the object"))
                 } else {
                     miss_error("ring")
@@ -466,8 +495,8 @@ pub fn ring(ctx: &Context, cfg: &RingConfig) -> Result<PatternPath> {
         };
         let (lo, hi) = if half > 0.0 { (-half, half) } else { (-PI, PI) };
         let line = Line::from_walks(
-            ctx.projector.walk(&family, centre, lo, metric, None),
-            ctx.projector.walk(&family, centre, hi, metric, None),
+            pj.walk(&family, centre, lo, metric, None),
+            pj.walk(&family, centre, hi, metric, None),
         );
         let seen = (line.at(line.scanned.0).tau, line.at(line.scanned.1).tau);
         let (want_lo, want_hi) = if half > 0.0 {
@@ -514,8 +543,8 @@ pub fn ring(ctx: &Context, cfg: &RingConfig) -> Result<PatternPath> {
             cross: s,
         })
         .collect();
-    let mut path = boustrophedon(ctx, &passes, metric, &|th, s| guide(s, th), cfg.force_n)?;
-    bridge_holes(&mut path, ctx.reference);
+    let mut path = boustrophedon(pj, &passes, metric, &|th, s| guide(s, th), cfg.force_n)?;
+    bridge_holes(&mut path, obj.reference);
     Ok(PatternPath {
         points: path,
         rows: n,
@@ -531,7 +560,9 @@ pub fn ring(ctx: &Context, cfg: &RingConfig) -> Result<PatternPath> {
 /// [`Error::Failed`] if the region's centre misses the object or the region is larger than the
 /// scanned surface (unless clipped).
 pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
-    let ax = &ctx.input.axes;
+    let obj = ctx.object("raster")?;
+    let pj = &obj.projector;
+    let ax = &obj.input.axes;
     let d = (ax.centre - ctx.input.viewpoint)
         .try_normalize(1e-9)
         .ok_or_else(|| {
@@ -553,22 +584,17 @@ pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
         dir: d,
         reach: 2.0 * r_out,
     };
-    let clip = ctx.projector.config.clip;
+    let clip = pj.config.clip;
     let f = cfg.force_n;
     let walk_line = |family: &dyn Fn(f64) -> Guide, centre: PathPoint, target: f64| {
         Line::from_walks(
-            ctx.projector
-                .walk(family, centre, centre.tau - r_out, 1.0, Some(target)),
-            ctx.projector
-                .walk(family, centre, centre.tau + r_out, 1.0, Some(target)),
+            pj.walk(family, centre, centre.tau - r_out, 1.0, Some(target)),
+            pj.walk(family, centre, centre.tau + r_out, 1.0, Some(target)),
         )
     };
     // The transect across the rows through the region's centre.
     let tv = |v: f64| guide(0.0, v);
-    let centre = ctx
-        .projector
-        .cast(&tv(0.0), 0.0, f)
-        .ok_or_else(|| miss_error("raster"))?;
+    let centre = pj.cast(&tv(0.0), 0.0, f).ok_or_else(|| miss_error("raster"))?;
     let transect = walk_line(&tv, centre, cfg.height_m / 2.0);
     let ((s_lo, s_hi), mut clipped) = fit(
         (-cfg.height_m / 2.0, cfg.height_m / 2.0),
@@ -589,7 +615,7 @@ pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
         .map(|j| {
             let v = transect.at(s_lo + j as f64 * spacing).tau;
             let tu = |u: f64| guide(u, v);
-            let centre = ctx.projector.cast(&tu(0.0), 0.0, f).ok_or_else(|| miss_error("raster row"))?;
+            let centre = pj.cast(&tu(0.0), 0.0, f).ok_or_else(|| miss_error("raster row"))?;
             let row = walk_line(&tu, centre, cfg.width_m / 2.0);
             let ((a, b), cl) = fit((-cfg.width_m / 2.0, cfg.width_m / 2.0), row.scanned, clip, || {
                 format!(
@@ -605,8 +631,8 @@ pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
         .collect::<Result<_>>()?; // the first failing row, whatever the threads did
     clipped |= rows.iter().any(|r| r.1);
     let passes: Vec<Pass> = rows.into_iter().map(|r| r.0).collect();
-    let mut path = boustrophedon(ctx, &passes, 1.0, &|u, v| guide(u, v), f)?;
-    bridge_holes(&mut path, ctx.reference);
+    let mut path = boustrophedon(pj, &passes, 1.0, &|u, v| guide(u, v), f)?;
+    bridge_holes(&mut path, obj.reference);
     Ok(PatternPath {
         points: path,
         rows: n,
@@ -679,21 +705,47 @@ pub fn line(ctx: &Context, cfg: &LineConfig) -> Result<PatternPath> {
     }
     let (n, dist) = (raw_n / norm, plane[3] / norm);
     let height = |p: &Point3<f64>| n.dot(&p.coords) + dist;
-    let ax = &input.axes;
-    let c0 = ax.centre - n * height(&ax.centre);
-    let heading = Rotation3::from_axis_angle(&Unit::new_unchecked(n), cfg.heading_deg.to_radians())
-        * perpendicular(&n, &ax.axis);
-    let mut lateral = n.cross(&heading);
-    if (input.viewpoint - c0).dot(&lateral) < 0.0 {
-        lateral = -lateral;
-    }
-    let verts = &input.reference.vertices;
-    let half_width = verts
-        .iter()
-        .map(|v| (v - c0).dot(&lateral).abs())
-        .fold(0.0, f64::max);
-    let top = verts.iter().map(height).fold(0.0, f64::max) + RAY_CLEARANCE;
-    let c = c0 + lateral * (half_width + cfg.clearance_m + cfg.offset_m[1]) + heading * cfg.offset_m[0];
+    let turn = Rotation3::from_axis_angle(&Unit::new_unchecked(n), cfg.heading_deg.to_radians());
+    let (c0, heading, lateral, half_width, top) = match &ctx.object {
+        // Beside the object's footprint, parallel to its axis, on the camera's side.
+        Some(obj) => {
+            let ax = &obj.input.axes;
+            let c0 = ax.centre - n * height(&ax.centre);
+            let heading = turn * perpendicular(&n, &ax.axis);
+            let mut lateral = n.cross(&heading);
+            if (input.viewpoint - c0).dot(&lateral) < 0.0 {
+                lateral = -lateral;
+            }
+            let verts = &obj.input.reference.vertices;
+            let half_width = verts
+                .iter()
+                .map(|v| (v - c0).dot(&lateral).abs())
+                .fold(0.0, f64::max);
+            let top = verts.iter().map(height).fold(0.0, f64::max);
+            (c0, heading, lateral, half_width + cfg.clearance_m, top)
+        }
+        // Where the optical axis (z of the scan frame) meets the seabed, along the image's x.
+        None => {
+            let along = n.dot(&Vector3::z());
+            let t = -height(&input.viewpoint) / along;
+            if !(t.is_finite() && t > 0.0) {
+                return Err(Error::failed(
+                    "plan",
+                    "the camera's optical axis does not meet the seabed plane; no place for the line",
+                ));
+            }
+            let heading = turn * perpendicular(&n, &Vector3::x());
+            (
+                input.viewpoint + Vector3::z() * t,
+                heading,
+                n.cross(&heading),
+                0.0,
+                0.0,
+            )
+        }
+    };
+    let top = top + RAY_CLEARANCE;
+    let c = c0 + lateral * (half_width + cfg.offset_m[1]) + heading * cfg.offset_m[0];
     let reach = 2.0 * top + 2.0 * RAY_CLEARANCE;
     let guide = |t: f64| Guide {
         origin: c + heading * t + n * top,
@@ -709,7 +761,7 @@ pub fn line(ctx: &Context, cfg: &LineConfig) -> Result<PatternPath> {
         vertices: corners.to_vec(),
         triangles: vec![[0, 1, 2], [0, 2, 3]],
     };
-    let config = ctx.projector.config;
+    let config = ctx.projection;
     let plane_surface = SmoothSurface::new(&plane_mesh, Facing::Winding, config.smoothing_radius_m)?;
     let seabed = match input.seabed_surface {
         Some(m) if !m.triangles.is_empty() => Some(SmoothSurface::new(
@@ -741,11 +793,14 @@ pub fn line(ctx: &Context, cfg: &LineConfig) -> Result<PatternPath> {
         cfg.force_n,
         "line",
     )?;
-    for p in &points {
+    for p in points.iter().filter(|_| ctx.object.is_some()) {
         let g = guide(p.tau);
         let to_seabed = (p.point - g.origin).norm();
-        if ctx.projector.primary.cast(&g.origin, &g.dir, to_seabed).is_some()
-            || ctx.reference.cast(&g.origin, &g.dir, to_seabed).is_some()
+        let hits = |s: &SmoothSurface| s.cast(&g.origin, &g.dir, to_seabed).is_some();
+        if ctx
+            .object
+            .as_ref()
+            .is_some_and(|o| hits(o.projector.primary) || hits(o.reference))
         {
             return Err(Error::failed(
                 "plan",
@@ -902,8 +957,10 @@ pub fn polyline(ctx: &Context, cfg: &PolylineConfig) -> Result<PatternPath> {
         )
     })?;
     let raw = read_polyline(file)?;
+    let obj = ctx.object("polyline")?;
+    let pj = &obj.projector;
     let to_scan = match cfg.frame {
-        PolylineFrame::Reference => ctx.input.t_scan_reference,
+        PolylineFrame::Reference => obj.input.t_scan_reference,
         PolylineFrame::Scan => Pose::identity(),
         PolylineFrame::World => ctx.t_world_scan.inverse(),
     };
@@ -911,7 +968,7 @@ pub fn polyline(ctx: &Context, cfg: &PolylineConfig) -> Result<PatternPath> {
         .iter()
         .map(|(p, f)| (to_scan * p, f.unwrap_or(cfg.force_n)))
         .collect();
-    let step = ctx.projector.config.step_m;
+    let step = pj.config.step_m;
     let mut guides = Vec::new();
     let mut tau = 0.0;
     let mut previous: Option<Point3<f64>> = None;
@@ -923,8 +980,8 @@ pub fn polyline(ctx: &Context, cfg: &PolylineConfig) -> Result<PatternPath> {
         // The ray starts `standoff` outside the reference along its smoothed normal. Both are
         // taken at `p` itself (the normal and the distance vary continuously along the path; the
         // closest point jumps across the edges of a faceted model).
-        let q = ctx.reference.project(&p);
-        let (normal, _) = ctx.reference.local_plane(&p, &q.normal);
+        let q = obj.reference.project(&p);
+        let (normal, _) = obj.reference.local_plane(&p, &q.normal);
         let back = cfg.standoff_m + q.distance;
         guides.push((
             tau,
@@ -936,18 +993,13 @@ pub fn polyline(ctx: &Context, cfg: &PolylineConfig) -> Result<PatternPath> {
             },
         ));
     }
-    let mut points = project_all(
-        &ctx.projector,
-        guides.iter().map(|(t, _, g)| (*t, *g)),
-        0.0,
-        "polyline",
-    )?;
+    let mut points = project_all(pj, guides.iter().map(|(t, _, g)| (*t, *g)), 0.0, "polyline")?;
     for (p, (_, f, _)) in points.iter_mut().zip(&guides) {
         p.force = *f;
     }
-    let config = ctx.projector.config;
+    let config = pj.config;
     check_holes(&points, config.max_hole_m, "polyline")?;
-    bridge_holes(&mut points, ctx.reference);
+    bridge_holes(&mut points, obj.reference);
     let (points, clipped) = trim_to_scan(points, config.clip, "polyline")?;
     Ok(PatternPath {
         points,
