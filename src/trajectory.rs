@@ -507,5 +507,18 @@ mod tests {
         assert!(text.contains("element edge 10\n"));
         let header_len = text.find("end_header\n").unwrap() + "end_header\n".len();
         assert_eq!(buf.len(), header_len + 17 * 27 + 10 * 8);
+        // The crate's own reader walks past the edge element and returns the vertices.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.ply");
+        std::fs::write(&path, &buf).unwrap();
+        let (cloud, info) = crate::io::ply::read_cloud(&path).unwrap();
+        assert_eq!(cloud.len(), 17);
+        assert!(info.has_colors);
+        let t = demo();
+        assert_eq!(cloud.points[2], t.samples[2].position);
+        // The z axis of the first drawn frame (contact sample 1) ends 2 cm along k.
+        let tip = cloud.points[5 + 5];
+        assert!((tip - (t.samples[1].position + t.samples[1].k * 0.02)).norm() < 1e-12);
+        assert_eq!(cloud.colors.unwrap()[10], [0, 0, 255]);
     }
 }
