@@ -21,10 +21,12 @@ pub mod model;
 pub mod multibody;
 pub mod output;
 pub mod plant;
+pub mod plan;
 pub mod spatial;
 pub mod spatial_algebra;
 pub mod surface;
 pub mod synth;
 pub mod vehicle;
+pub mod trajectory;
 
 pub use error::{Error, Result};
