@@ -8,7 +8,13 @@ use crate::error::{Error, Result};
 use crate::mesh::TriangleMesh;
 use std::io::Write;
 
-fn header(w: &mut dyn Write, vertices: usize, colors: bool, normals: bool, faces: Option<usize>) -> std::io::Result<()> {
+fn header(
+    w: &mut dyn Write,
+    vertices: usize,
+    colors: bool,
+    normals: bool,
+    faces: Option<usize>,
+) -> std::io::Result<()> {
     writeln!(w, "ply\nformat binary_little_endian 1.0\ncomment written by uvms")?;
     writeln!(w, "element vertex {vertices}")?;
     writeln!(w, "property double x\nproperty double y\nproperty double z")?;
@@ -30,7 +36,14 @@ fn header(w: &mut dyn Write, vertices: usize, colors: bool, normals: bool, faces
 /// [`Error::Failed`] if the writer fails.
 pub fn write_cloud(w: &mut dyn Write, cloud: &PointCloud) -> Result<()> {
     let io = |e: std::io::Error| Error::failed("write PLY", e);
-    header(w, cloud.len(), cloud.colors.is_some(), cloud.normals.is_some(), None).map_err(io)?;
+    header(
+        w,
+        cloud.len(),
+        cloud.colors.is_some(),
+        cloud.normals.is_some(),
+        None,
+    )
+    .map_err(io)?;
     let mut buf = Vec::with_capacity(cloud.len() * 51);
     for (i, p) in cloud.points.iter().enumerate() {
         for v in p.coords.iter() {
