@@ -120,6 +120,13 @@ pub struct SeabedConfig {
     pub min_inliers: usize,
     /// Seed of the random sampling.
     pub seed: u64,
+    /// Object side: points at least this far above the plane, metres; 0 uses the threshold.
+    pub object_min_height_m: f64,
+    /// Object side: points at most this far above the plane, metres; 0 means no limit.
+    pub object_max_height_m: f64,
+    /// Object side: only points whose foot on the plane lies inside the convex hull of the
+    /// seabed's inliers (things standing on the seabed, not a background beyond it).
+    pub object_on_footprint: bool,
 }
 
 impl Default for SeabedConfig {
@@ -138,6 +145,9 @@ impl Default for SeabedConfig {
             refit_rounds: 10,
             min_inliers: 100,
             seed: 1,
+            object_min_height_m: 0.0,
+            object_max_height_m: 0.0,
+            object_on_footprint: true,
         }
     }
 }
@@ -357,6 +367,84 @@ pub fn find_seabed(
     })
 }
 
+/// Indices of the points on the object side of the seabed: above the plane (camera side) by more
+/// than `object_min_height_m` (or the threshold), at most `object_max_height_m` when set, and with
+/// `object_on_footprint` only those whose foot on the plane falls inside the convex hull of the
+/// inliers' feet. Increasing order.
+pub fn object_side(points: &[Point3<f64>], fit: &SeabedFit, cfg: &SeabedConfig) -> Vec<usize> {
+    let lo = if cfg.object_min_height_m > 0.0 {
+        cfg.object_min_height_m
+    } else {
+        fit.threshold_m
+    };
+    let hi = if cfg.object_max_height_m > 0.0 {
+        cfg.object_max_height_m
+    } else {
+        f64::INFINITY
+    };
+    let n = fit.plane.normal;
+    let e1 = n
+        .cross(&if n.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        })
+        .normalize();
+    let e2 = n.cross(&e1);
+    let foot = |p: &Point3<f64>| [p.coords.dot(&e1), p.coords.dot(&e2)];
+    let hull = if cfg.object_on_footprint {
+        convex_hull_2d(fit.inliers.iter().map(|&i| foot(&points[i])).collect())
+    } else {
+        Vec::new()
+    };
+    (0..points.len())
+        .into_par_iter()
+        .filter(|&i| {
+            let h = fit.residuals[i];
+            h > lo && h <= hi && (!cfg.object_on_footprint || inside_convex(&hull, foot(&points[i])))
+        })
+        .collect()
+}
+
+/// Convex hull of 2-D points, counter-clockwise (Andrew's monotone chain).
+fn convex_hull_2d(mut p: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
+    p.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    p.dedup();
+    if p.len() < 3 {
+        return p;
+    }
+    let cross =
+        |o: [f64; 2], a: [f64; 2], b: [f64; 2]| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+    let mut hull: Vec<[f64; 2]> = Vec::with_capacity(64);
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &[f64; 2]>> = if pass == 0 {
+            Box::new(p.iter())
+        } else {
+            Box::new(p.iter().rev())
+        };
+        for &q in iter {
+            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0 {
+                hull.pop();
+            }
+            hull.push(q);
+        }
+        hull.pop();
+    }
+    hull
+}
+
+/// True if `q` is inside (or on) the counter-clockwise convex polygon `hull` (≥ 3 vertices).
+fn inside_convex(hull: &[[f64; 2]], q: [f64; 2]) -> bool {
+    if hull.len() < 3 {
+        return false;
+    }
+    (0..hull.len()).all(|i| {
+        let (a, b) = (hull[i], hull[(i + 1) % hull.len()]);
+        (b[0] - a[0]) * (q[1] - a[1]) - (b[1] - a[1]) * (q[0] - a[0]) >= 0.0
+    })
+}
+
 fn inliers_of(points: &[Point3<f64>], plane: &Plane, threshold: f64) -> Vec<usize> {
     points
         .par_iter()
@@ -490,6 +578,60 @@ mod tests {
         assert_eq!(err.exit_code(), 1);
         let err = find_seabed(&pts, Some(&Vector3::zeros()), &SeabedConfig::default()).unwrap_err();
         assert_eq!(err.exit_code(), 2);
+    }
+
+    #[test]
+    fn object_side_keeps_what_stands_on_the_seabed() {
+        let (mut pts, _, n_seabed) = scene(0.001, 0.0, 0.0, 10);
+        let n_object = pts.len() - n_seabed;
+        // Points above the plane but beyond the seabed's edge (a background), and below it.
+        pts.extend((0..500).map(|i| Point3::new(0.9 + 0.0001 * i as f64, 0.0, 0.95)));
+        pts.extend((0..500).map(|i| Point3::new(0.0001 * i as f64, 0.0, 1.05)));
+        let cfg = SeabedConfig::default();
+        let fit = find_seabed(&pts, None, &cfg).unwrap();
+        let obj = object_side(&pts, &fit, &cfg);
+        // Every object point, none of the background or below the plane, and only the 3σ tail of
+        // the seabed's noise (0.13 %).
+        let objects = obj
+            .iter()
+            .filter(|&&i| (n_seabed..n_seabed + n_object).contains(&i))
+            .count();
+        let tail = obj.iter().filter(|&&i| i < n_seabed).count();
+        assert_eq!(objects, n_object);
+        assert!(tail < n_seabed / 200, "{tail}");
+        assert_eq!(obj.len(), objects + tail);
+        let all = object_side(
+            &pts,
+            &fit,
+            &SeabedConfig {
+                object_on_footprint: false,
+                ..cfg.clone()
+            },
+        );
+        assert_eq!(all.len(), obj.len() + 500);
+        let low = object_side(
+            &pts,
+            &fit,
+            &SeabedConfig {
+                object_max_height_m: 0.05,
+                ..cfg
+            },
+        );
+        assert!(low.len() < n_object && low.iter().all(|&i| fit.residuals[i] <= 0.05));
+    }
+
+    #[test]
+    fn hull_and_inside() {
+        let h = convex_hull_2d(vec![
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [0.0, 1.0],
+            [0.5, 0.5],
+            [0.2, 0.7],
+        ]);
+        assert_eq!(h.len(), 4);
+        assert!(inside_convex(&h, [0.5, 0.5]) && !inside_convex(&h, [1.5, 0.5]));
     }
 
     #[test]
