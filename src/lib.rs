@@ -15,6 +15,7 @@ pub mod frames;
 pub mod io;
 pub mod mesh;
 pub mod output;
+pub mod register;
 pub mod segment;
 pub mod spatial;
 pub mod surface;
