@@ -370,13 +370,6 @@ pub(crate) mod tests {
                 .angle(&(truth * Vector3::x()))
                 .to_degrees();
             let m = (r.t_scan_reference.translation.vector - truth.translation.vector).norm();
-            eprintln!(
-                "case {k}: axis {axis_deg}° {m} m, it {} fit {} vis {} score {:?}",
-                r.iterations,
-                r.fitness,
-                r.visible_points,
-                r.init.as_ref().map(|i| (i.score_m, i.runner_up_score_m))
-            );
             assert!(
                 axis_deg < 0.3 && m < 0.0015,
                 "case {k}: axis {axis_deg}° {m} m, {r:?}"
