@@ -11,6 +11,8 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 
+pub mod info;
+
 /// Command-line arguments.
 #[derive(Debug, Parser)]
 #[command(
@@ -32,7 +34,10 @@ pub struct Cli {
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
-pub enum Command {}
+pub enum Command {
+    /// What a PLY file holds: points, faces, properties, encoding, bounding box.
+    Info(info::InfoArgs),
+}
 
 /// What a command produced.
 #[derive(Debug)]
@@ -80,7 +85,9 @@ pub fn execute(cli: Cli) -> Result<()> {
         json: cli.json,
         quiet: cli.quiet,
     };
-    let report: Report = match cli.command {};
+    let report: Report = match &cli.command {
+        Command::Info(args) => info::run(args, &ctx)?,
+    };
     if let Some(out) = &report.out {
         out.write_json("summary.json", &report.summary)?;
     }
