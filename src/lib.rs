@@ -7,6 +7,7 @@
 //! transforms; the stages and the simulation build on those. [`cli`] is the command line.
 //! Conventions: f64 everywhere, SI units, transforms `t_a_b` map `b` coordinates into `a`.
 
+pub mod accuracy;
 pub mod cli;
 pub mod cloud;
 pub mod config;
@@ -19,5 +20,6 @@ pub mod register;
 pub mod segment;
 pub mod spatial;
 pub mod surface;
+pub mod triangulate;
 
 pub use error::{Error, Result};

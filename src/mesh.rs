@@ -41,7 +41,7 @@ impl TriangleMesh {
             }
             cumulative.push(total);
         }
-        if !(total > 0.0) || !total.is_finite() {
+        if !(total > 0.0 && total.is_finite()) {
             return (Vec::new(), Vec::new());
         }
         let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(seed);

@@ -35,7 +35,7 @@ impl Default for HiddenPointConfig {
 pub fn visible_points(points: &[Point3<f64>], viewpoint: &Point3<f64>, radius_factor: f64) -> Vec<usize> {
     let all = || (0..points.len()).collect();
     let max = points.iter().map(|p| (p - viewpoint).norm()).fold(0.0, f64::max);
-    if points.len() < 4 || !(max > 0.0) || !(radius_factor > 1.0) {
+    if points.len() < 4 || !(max > 0.0 && radius_factor > 1.0) {
         return all();
     }
     let r = radius_factor * max;

@@ -414,7 +414,7 @@ fn reverse_pairs(
 fn solve_constrained(h: &Matrix6<f64>, rhs: &Vector6<f64>, ratio: f64) -> Vector6<f64> {
     let e = h.symmetric_eigen();
     let max = e.eigenvalues.max();
-    if !(max > 0.0) || !max.is_finite() {
+    if !(max > 0.0 && max.is_finite()) {
         return Vector6::zeros();
     }
     let mut x = Vector6::zeros();
