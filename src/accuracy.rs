@@ -183,19 +183,19 @@ pub fn deviation(first: &[Option<f64>], second: &[Option<f64>], mask: Option<&[b
     }
 }
 
-/// The seed's [59] estimate: test trajectories over the scanned object `object` projected onto the
-/// scanned surface and the aligned reference surface.
+/// The seed's [59] estimate: test trajectories over the scanned object `object` (seen from
+/// `camera`) projected onto the scanned surface and the aligned reference surface.
 ///
 /// # Errors
 /// As [`test_rays`].
 pub fn trajectory_accuracy(
     object: &[Point3<f64>],
+    camera: &Point3<f64>,
     scan_surface: &Surface,
     reference_surface: &Surface,
     cfg: &AccuracyConfig,
 ) -> Result<Deviation> {
-    let camera = Point3::origin();
-    let rays = test_rays(object, &camera, cfg)?;
+    let rays = test_rays(object, camera, cfg)?;
     let reach = 2.0 * object.iter().map(|p| (p - camera).norm()).fold(0.0, f64::max);
     Ok(deviation(
         &cast_rays(scan_surface, &rays, reach),
@@ -274,7 +274,14 @@ mod tests {
             .collect();
         let scan = Surface::new(&plate(1.0)).unwrap();
         let reference = Surface::new(&plate(1.003)).unwrap();
-        let d = trajectory_accuracy(&object, &scan, &reference, &AccuracyConfig::default()).unwrap();
+        let d = trajectory_accuracy(
+            &object,
+            &Point3::origin(),
+            &scan,
+            &reference,
+            &AccuracyConfig::default(),
+        )
+        .unwrap();
         assert_eq!(d.samples, 21 * 101);
         assert!((d.coverage - 1.0).abs() < 1e-12);
         // Rays are parallel to the view direction, which is nearly +z: distances ≈ 3 mm / cos.
@@ -282,7 +289,14 @@ mod tests {
         assert!(d.mean_signed_m > 0.0);
         // A reference shifted sideways by more than the object leaves it uncovered.
         let away = Surface::new(&plate(1.0).transformed(&Isometry3::translation(0.5, 0.0, 0.0))).unwrap();
-        let d = trajectory_accuracy(&object, &scan, &away, &AccuracyConfig::default()).unwrap();
+        let d = trajectory_accuracy(
+            &object,
+            &Point3::origin(),
+            &scan,
+            &away,
+            &AccuracyConfig::default(),
+        )
+        .unwrap();
         assert!(d.coverage < 0.5, "{d:?}");
     }
 

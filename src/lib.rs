@@ -16,6 +16,7 @@ pub mod frames;
 pub mod io;
 pub mod mesh;
 pub mod output;
+pub mod perception;
 pub mod register;
 pub mod segment;
 pub mod spatial;

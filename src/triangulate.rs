@@ -1,8 +1,9 @@
 //! The triangulated surface of a single-view scan: 2.5-D Delaunay in the camera's image plane.
 //!
 //! A stereo camera sees each surface point along one ray, so the scan is a height field over the
-//! image: the points are projected to normalised image coordinates `(x/z, y/z)` (scan frame `S`:
-//! z along the optical axis), triangulated there (Delaunay, spade) and lifted back to 3-D.
+//! image: the points are projected centrally from the camera's centre onto an image plane
+//! perpendicular to the direction of the points' centroid (normalised image coordinates),
+//! triangulated there (Delaunay, spade) and lifted back to 3-D.
 //! Delaunay fills the convex hull of the image, so triangles with an edge longer than
 //! `max_edge_m` (holes, occlusion boundaries, gaps between objects) or seen at a grazing angle
 //! (normal more than `max_view_angle_deg` from the view ray: the jump between a foreground and a
@@ -85,19 +86,36 @@ pub fn median_spacing(points: &[Point3<f64>], index: &KdIndex) -> f64 {
     median(&mut d).unwrap_or(0.0)
 }
 
-/// Triangulates a single-view scan (scan frame, camera at the origin looking along +z).
+/// Triangulates a single-view scan seen from `camera` (the origin for a scan in `S`).
 ///
 /// # Errors
 /// [`Error::Input`] for a bad configuration; [`Error::Failed`] (stage `surface`) when fewer than
 /// three points lie in front of the camera or no triangle survives the filters.
-pub fn triangulate_view(points: &[Point3<f64>], cfg: &SurfaceConfig) -> Result<TriangleMesh> {
+pub fn triangulate_view(
+    points: &[Point3<f64>],
+    camera: &Point3<f64>,
+    cfg: &SurfaceConfig,
+) -> Result<TriangleMesh> {
     if !(cfg.max_edge_m >= 0.0 && cfg.edge_factor > 0.0 && cfg.max_view_angle_deg > 0.0) {
         return Err(Error::input(
             "surface",
             "max_edge_m must be ≥ 0, edge_factor and max_view_angle_deg > 0",
         ));
     }
-    let front: Vec<Point3<f64>> = points.iter().filter(|p| p.z > 1e-9).copied().collect();
+    let centroid = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / points.len().max(1) as f64;
+    let d = (centroid - camera.coords)
+        .try_normalize(1e-12)
+        .ok_or_else(|| Error::failed("surface", "the points' centroid is at the camera"))?;
+    let e1 = d
+        .cross(&if d.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        })
+        .normalize();
+    let e2 = d.cross(&e1);
+    let depth = |p: &Point3<f64>| (p - camera).dot(&d);
+    let front: Vec<Point3<f64>> = points.iter().filter(|p| depth(p) > 1e-9).copied().collect();
     if front.len() < 3 {
         return Err(Error::failed(
             "surface",
@@ -118,10 +136,13 @@ pub fn triangulate_view(points: &[Point3<f64>], cfg: &SurfaceConfig) -> Result<T
     let verts: Vec<Vertex> = vertices
         .iter()
         .enumerate()
-        .filter(|(_, p)| p.z > 1e-9)
-        .map(|(i, p)| Vertex {
-            uv: Point2::new(p.x / p.z, p.y / p.z),
-            index: i as u32,
+        .filter(|(_, p)| depth(p) > 1e-9)
+        .map(|(i, p)| {
+            let v = p - camera;
+            Vertex {
+                uv: Point2::new(v.dot(&e1) / depth(p), v.dot(&e2) / depth(p)),
+                index: i as u32,
+            }
         })
         .collect();
     let dt: DelaunayTriangulation<Vertex> = DelaunayTriangulation::bulk_load(verts)
@@ -137,7 +158,7 @@ pub fn triangulate_view(points: &[Point3<f64>], cfg: &SurfaceConfig) -> Result<T
             }
             let n = (pb - pa).cross(&(pc - pa)).try_normalize(1e-300)?;
             let centroid = Point3::from((pa.coords + pb.coords + pc.coords) / 3.0);
-            let to_camera = (-centroid.coords).normalize();
+            let to_camera = (camera - centroid).normalize();
             let facing = n.dot(&to_camera);
             if facing.abs() < cos_view {
                 return None;
@@ -181,7 +202,7 @@ mod tests {
     #[test]
     fn front_cap_of_a_sphere() {
         let pts = cap(0.0);
-        let mesh = triangulate_view(&pts, &SurfaceConfig::default()).unwrap();
+        let mesh = triangulate_view(&pts, &Point3::origin(), &SurfaceConfig::default()).unwrap();
         // Area of the spherical cap with base radius 0.15 on a 0.2 m sphere: 2πR·h.
         let h = 0.2 - (0.04f64 - 0.0225).sqrt();
         let area = std::f64::consts::TAU * 0.2 * h;
@@ -206,7 +227,7 @@ mod tests {
         let n = pts.len();
         // A second patch far to the side: no triangle may bridge the gap.
         pts.extend(cap(0.0).iter().map(|p| p + Vector3::new(0.6, 0.0, 0.0)));
-        let mesh = triangulate_view(&pts, &SurfaceConfig::default()).unwrap();
+        let mesh = triangulate_view(&pts, &Point3::origin(), &SurfaceConfig::default()).unwrap();
         for t in &mesh.triangles {
             let side = t.map(|i| (i as usize) < n);
             assert!(side.iter().all(|&s| s) || side.iter().all(|&s| !s));
@@ -223,6 +244,7 @@ mod tests {
         let raw = rms(&noisy);
         let mesh = triangulate_view(
             &noisy,
+            &Point3::origin(),
             &SurfaceConfig {
                 smoothing_neighbours: 20,
                 ..Default::default()
@@ -231,6 +253,6 @@ mod tests {
         .unwrap();
         let smooth = rms(&mesh.vertices);
         assert!(smooth < 0.4 * raw, "{smooth} vs {raw}");
-        assert!(triangulate_view(&noisy[..2], &SurfaceConfig::default()).is_err());
+        assert!(triangulate_view(&noisy[..2], &Point3::origin(), &SurfaceConfig::default()).is_err());
     }
 }

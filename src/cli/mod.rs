@@ -11,7 +11,9 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 
+pub mod check;
 pub mod info;
+pub mod segment;
 
 /// Command-line arguments.
 #[derive(Debug, Parser)]
@@ -37,6 +39,10 @@ pub struct Cli {
 pub enum Command {
     /// What a PLY file holds: points, faces, properties, encoding, bounding box.
     Info(info::InfoArgs),
+    /// Seabed and clusters of a scan, as coloured PLYs (seabed red, object green).
+    Segment(segment::SegmentArgs),
+    /// Align a reference model to the scanned object and report the alignment's accuracy.
+    Check(check::CheckArgs),
 }
 
 /// What a command produced.
@@ -87,6 +93,8 @@ pub fn execute(cli: Cli) -> Result<()> {
     };
     let report: Report = match &cli.command {
         Command::Info(args) => info::run(args, &ctx)?,
+        Command::Segment(args) => segment::run(args, &ctx)?,
+        Command::Check(args) => check::run(args, &ctx)?,
     };
     if let Some(out) = &report.out {
         out.write_json("summary.json", &report.summary)?;
