@@ -21,6 +21,7 @@ pub mod register;
 pub mod segment;
 pub mod spatial;
 pub mod surface;
+pub mod synth;
 pub mod triangulate;
 
 pub use error::{Error, Result};

@@ -62,6 +62,22 @@ impl TriangleMesh {
         (points, normals)
     }
 
+    /// Per-vertex unit normals: the area-weighted mean of the adjacent triangles' normals (zero
+    /// for a vertex no triangle uses).
+    pub fn vertex_normals(&self) -> Vec<Vector3<f64>> {
+        let mut n = vec![Vector3::zeros(); self.vertices.len()];
+        for t in &self.triangles {
+            let [a, b, c] = t.map(|i| self.vertices[i as usize]);
+            let w = (b - a).cross(&(c - a)); // twice the area times the unit normal
+            for &i in t {
+                n[i as usize] += w;
+            }
+        }
+        n.iter()
+            .map(|v| v.try_normalize(1e-300).unwrap_or_else(Vector3::zeros))
+            .collect()
+    }
+
     /// Total surface area, square metres.
     pub fn area(&self) -> f64 {
         self.triangles

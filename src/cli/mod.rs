@@ -14,6 +14,7 @@ use std::io::IsTerminal;
 pub mod check;
 pub mod info;
 pub mod segment;
+pub mod synth;
 
 /// Command-line arguments.
 #[derive(Debug, Parser)]
@@ -43,6 +44,8 @@ pub enum Command {
     Segment(segment::SegmentArgs),
     /// Align a reference model to the scanned object and report the alignment's accuracy.
     Check(check::CheckArgs),
+    /// A synthetic underwater stereo scan with its ground truth.
+    Synth(synth::SynthArgs),
 }
 
 /// What a command produced.
@@ -95,6 +98,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Info(args) => info::run(args, &ctx)?,
         Command::Segment(args) => segment::run(args, &ctx)?,
         Command::Check(args) => check::run(args, &ctx)?,
+        Command::Synth(args) => synth::run(args, &ctx)?,
     };
     if let Some(out) = &report.out {
         out.write_json("summary.json", &report.summary)?;

@@ -484,11 +484,36 @@ impl Vertices {
         }
     }
 
-    /// Adds one record; `get(property index, type)` decodes a scalar of it.
+    /// Decodes one record's attributes; `at(property index)` is the byte slice starting at that
+    /// property (binary), `None` if the record is short.
     #[inline(always)]
-    fn push(&mut self, mut get: impl FnMut(usize, Scalar) -> Option<f64>) -> Option<()> {
-        let [x, y, z] = self.layout.xyz;
-        let p = Point3::new(get(x.0, x.1)?, get(y.0, y.1)?, get(z.0, z.1)?);
+    fn decode<'b>(
+        &self,
+        be: bool,
+        at: impl Fn(usize) -> Option<&'b [u8]>,
+    ) -> Option<(Point3<f64>, [u8; 3], Vector3<f64>)> {
+        let l = &self.layout;
+        let rd = |(k, s): (usize, Scalar)| s.read(at(k)?, be);
+        let p = Point3::new(rd(l.xyz[0])?, rd(l.xyz[1])?, rd(l.xyz[2])?);
+        let mut c = [0u8; 3];
+        if let Some(rgb) = l.rgb {
+            for (c, (k, s)) in c.iter_mut().zip(rgb) {
+                *c = match s {
+                    Scalar::U8 => *at(k)?.first()?,
+                    _ => colour(s.read(at(k)?, be)?, s),
+                };
+            }
+        }
+        let mut n = Vector3::zeros();
+        if let Some(nxyz) = l.nxyz {
+            n = Vector3::new(rd(nxyz[0])?, rd(nxyz[1])?, rd(nxyz[2])?);
+        }
+        Some((p, c, n))
+    }
+
+    /// Adds one record (colour and normal ignored when the cloud has none).
+    #[inline(always)]
+    fn push(&mut self, (p, c, n): (Point3<f64>, [u8; 3], Vector3<f64>)) {
         let index = self.read;
         self.read += 1;
         if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
@@ -497,21 +522,18 @@ impl Vertices {
             }
             self.dropped += 1;
             self.remap.push(u32::MAX);
-            return Some(());
+            return;
         }
         if self.dropped > 0 {
             self.remap.push(self.points.len() as u32);
         }
         self.points.push(p);
-        if let (Some(c), Some(rgb)) = (&mut self.colors, self.layout.rgb) {
-            let [r, g, b] = rgb.map(|(i, s)| get(i, s).map(|v| colour(v, s)));
-            c.push([r?, g?, b?]);
+        if let Some(cs) = &mut self.colors {
+            cs.push(c);
         }
-        if let (Some(n), Some(nxyz)) = (&mut self.normals, self.layout.nxyz) {
-            let [a, b, c] = nxyz.map(|(i, s)| get(i, s));
-            n.push(Vector3::new(a?, b?, c?));
+        if let Some(ns) = &mut self.normals {
+            ns.push(n);
         }
-        Some(())
     }
 
     /// New index of old vertex `i`, `None` if it was dropped or out of range.
@@ -835,8 +857,10 @@ fn read_vertices_binary(bin: &mut Binary, e: &Element, v: &mut Vertices) -> std:
         let n = usize::try_from(e.count).unwrap_or(usize::MAX).min(avail);
         let data = &bin.data[bin.pos..bin.pos + n * stride];
         for rec in data.chunks_exact(stride) {
-            v.push(|k, s| s.read(rec.get(offsets[k]..)?, be))
+            let rec_values = v
+                .decode(be, |k| rec.get(*offsets.get(k)?..))
                 .ok_or_else(|| truncated(e, v.read as u64))?;
+            v.push(rec_values);
         }
         bin.pos += n * stride;
         if (n as u64) < e.count {
@@ -848,14 +872,18 @@ fn read_vertices_binary(bin: &mut Binary, e: &Element, v: &mut Vertices) -> std:
     for r in 0..e.count {
         bin.walk_record(e, r, |k, o| at[k] = o, |_, _, _| Ok(()))?;
         let data = bin.data;
-        v.push(|k, s| s.read(data.get(at[k]..)?, be))
+        let rec_values = v
+            .decode(be, |k| data.get(*at.get(k)?..))
             .ok_or_else(|| truncated(e, r))?;
+        v.push(rec_values);
     }
     Ok(())
 }
 
 fn read_vertices_ascii(txt: &mut Ascii, e: &Element, v: &mut Vertices) -> std::result::Result<(), String> {
-    let mut vals = vec![f64::NAN; e.props.len()];
+    // Values are parsed at their declared type (a `float` as f32), then widened to f64.
+    let mut vals = vec![0.0f64; e.props.len()];
+    let l = v.layout;
     for r in 0..e.count {
         for (k, p) in e.props.iter().enumerate() {
             match p.kind {
@@ -863,8 +891,13 @@ fn read_vertices_ascii(txt: &mut Ascii, e: &Element, v: &mut Vertices) -> std::r
                 Kind::List(c, _) => skip_ascii_list(txt, e, r, p, c)?,
             }
         }
-        v.push(|k, _| vals.get(k).copied())
-            .ok_or_else(|| truncated(e, r))?;
+        let get = |(k, _): (usize, Scalar)| vals[k];
+        let p = Point3::new(get(l.xyz[0]), get(l.xyz[1]), get(l.xyz[2]));
+        let c = l.rgb.map_or([0; 3], |a| a.map(|(k, s)| colour(vals[k], s)));
+        let n = l.nxyz.map_or(Vector3::zeros(), |a| {
+            Vector3::new(get(a[0]), get(a[1]), get(a[2]))
+        });
+        v.push((p, c, n));
     }
     Ok(())
 }
