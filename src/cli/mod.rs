@@ -13,7 +13,9 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 
+pub mod check;
 pub mod info;
+pub mod segment;
 pub mod synth;
 
 /// Command-line arguments.
@@ -42,6 +44,10 @@ pub enum Command {
     Arm(arm::ArmArgs),
     /// What a PLY file holds: points, faces, properties, encoding, bounding box.
     Info(info::InfoArgs),
+    /// Seabed and clusters of a scan, as coloured PLYs (seabed red, object green).
+    Segment(segment::SegmentArgs),
+    /// Align a reference model to the scanned object and report the alignment's accuracy.
+    Check(check::CheckArgs),
     /// A synthetic underwater stereo scan with its ground truth.
     Synth(synth::SynthArgs),
 }
@@ -95,6 +101,8 @@ pub fn execute(cli: Cli) -> Result<()> {
     let report: Report = match &cli.command {
         Command::Arm(a) => arm::run(a, &ctx)?,
         Command::Info(args) => info::run(args, &ctx)?,
+        Command::Segment(args) => segment::run(args, &ctx)?,
+        Command::Check(args) => check::run(args, &ctx)?,
         Command::Synth(args) => synth::run(args, &ctx)?,
     };
     if let Some(out) = &report.out {
