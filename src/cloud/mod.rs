@@ -5,6 +5,8 @@
 
 pub mod filter;
 pub mod knn;
+pub mod normals;
+pub mod pca;
 
 use nalgebra::{Point3, Vector3};
 
