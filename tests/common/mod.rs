@@ -15,7 +15,11 @@ pub fn real_data(file: &str) -> Option<PathBuf> {
         }
         Some(dir) => {
             let path = PathBuf::from(dir).join(file);
-            assert!(path.is_file(), "UVMS_REAL_DATA is set but {} does not exist", path.display());
+            assert!(
+                path.is_file(),
+                "UVMS_REAL_DATA is set but {} does not exist",
+                path.display()
+            );
             Some(path)
         }
     }
