@@ -3,6 +3,10 @@
 //! Positions are `f64` in metres, in the frame the file or stage states (scans are in the camera
 //! frame `S` unless said otherwise).
 
+pub mod filter;
+pub mod normals;
+pub mod pca;
+
 use nalgebra::{Point3, Vector3};
 
 /// A point cloud: positions with optional per-point colours and normals.

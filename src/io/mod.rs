@@ -1,3 +1,4 @@
 //! Reading and writing files: PLY clouds and meshes.
 
 pub mod ply;
+mod ply_read;
