@@ -209,3 +209,10 @@ fn link(m: &model::LinkModel, env: &Environment, strips: usize) -> Link {
         torque_limit: m.torque_limit,
     }
 }
+
+/// The default model's arm (AUV300 + PUMA 560), for the arm's unit tests.
+#[cfg(test)]
+pub(crate) fn test_arm() -> Arm {
+    let m = crate::model::UvmsModel::default();
+    Arm::new(&m.arm, &m.environment).expect("the default arm is valid")
+}
