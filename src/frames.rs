@@ -8,7 +8,8 @@
 //! A pose file is JSON whose key (e.g. `"t_scan_reference"`) holds a 4×4 row-major matrix.
 
 use crate::error::{Error, Result};
-use nalgebra::{Isometry3, Matrix3, Matrix4, Rotation3, Translation3, UnitQuaternion};
+use nalgebra::{Isometry3, Matrix3, Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
 
 /// A rigid transform (rotation + translation), metres.
 pub type Pose = Isometry3<f64>;
@@ -75,10 +76,101 @@ pub fn pose_error(estimate: &Pose, truth: &Pose) -> (f64, f64) {
     )
 }
 
+/// A pose written for people in a configuration file: a translation and roll, pitch, yaw angles
+/// (Z-Y-X Tait–Bryan, as in Fossen: `R = Rz(yaw) · Ry(pitch) · Rx(roll)`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PoseConfig {
+    /// Translation of the child frame's origin in the parent frame, metres.
+    pub xyz_m: [f64; 3],
+    /// Roll, pitch, yaw of the child frame relative to the parent frame, degrees.
+    pub rpy_deg: [f64; 3],
+}
+
+impl Default for PoseConfig {
+    fn default() -> Self {
+        PoseConfig {
+            xyz_m: [0.0; 3],
+            rpy_deg: [0.0; 3],
+        }
+    }
+}
+
+impl PoseConfig {
+    /// The transform `t_parent_child` this configuration describes.
+    pub fn pose(&self) -> Pose {
+        let [r, p, y] = self.rpy_deg.map(f64::to_radians);
+        Isometry3::from_parts(
+            Translation3::from(Vector3::from(self.xyz_m)),
+            UnitQuaternion::from_euler_angles(r, p, y),
+        )
+    }
+
+    /// Rejects non-finite entries; `what` names the field in errors.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming `what`.
+    pub fn validate(&self, what: &str) -> Result<()> {
+        if self.xyz_m.iter().chain(&self.rpy_deg).all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(Error::input(what, "pose has a non-finite entry"))
+        }
+    }
+}
+
+/// Where the scan was taken from: the camera `S` mounted on the vehicle `C`, and the vehicle's
+/// pose in the world `W` at the moment of the scan. The one place the chain
+/// `t_world_scan = t_world_vehicle · t_vehicle_camera` is written.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ScanFrames {
+    /// The camera's pose in the vehicle frame, `t_vehicle_camera`. Default: 0.6 m forward of and
+    /// 0.3 m below the centre of buoyancy, image x to starboard, optical axis pitched 60° below
+    /// the vehicle's forward axis (looking down and forward under the hull).
+    pub camera_in_vehicle: PoseConfig,
+    /// The vehicle's pose in the world when the scan was taken, `t_world_vehicle`. Default: at
+    /// the world origin, level, heading north.
+    pub vehicle_in_world: PoseConfig,
+}
+
+impl Default for ScanFrames {
+    fn default() -> Self {
+        ScanFrames {
+            camera_in_vehicle: PoseConfig {
+                xyz_m: [0.6, 0.0, 0.3],
+                rpy_deg: [30.0, 0.0, 90.0],
+            },
+            vehicle_in_world: PoseConfig::default(),
+        }
+    }
+}
+
+impl ScanFrames {
+    /// `t_world_scan`: maps scan (camera) coordinates into the world frame.
+    pub fn t_world_scan(&self) -> Pose {
+        self.vehicle_in_world.pose() * self.camera_in_vehicle.pose()
+    }
+
+    /// The unit vector opposite to gravity ("up", `-z_W`) in the scan frame.
+    pub fn up_in_scan(&self) -> Vector3<f64> {
+        self.t_world_scan().inverse_transform_vector(&-Vector3::z())
+    }
+
+    /// Rejects non-finite entries.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the field.
+    pub fn validate(&self) -> Result<()> {
+        self.camera_in_vehicle.validate("frames.camera_in_vehicle")?;
+        self.vehicle_in_world.validate("frames.vehicle_in_world")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::Vector3;
+    use nalgebra::Point3;
 
     #[test]
     fn rows_round_trip() {
@@ -86,6 +178,49 @@ mod tests {
         let back = pose_from_rows(&pose_to_rows(&p), "t").unwrap();
         assert!((back.to_homogeneous() - p.to_homogeneous()).abs().max() < 1e-12);
         assert_eq!(pose_error(&back, &p).1, 0.0);
+    }
+
+    #[test]
+    fn default_camera_looks_down_and_forward() {
+        let t = ScanFrames::default().t_world_scan();
+        // Image x to starboard (east when heading north), optical axis forward and down (z_W > 0)
+        // at 60° below the horizontal.
+        let x = t * Vector3::x();
+        let z = t * Vector3::z();
+        assert!((x - Vector3::y()).norm() < 1e-12, "{x}");
+        let expect = Vector3::new(30f64.to_radians().sin(), 0.0, 60f64.to_radians().sin());
+        assert!((z - expect).norm() < 1e-12, "{z}");
+        assert!((t.translation.vector - Vector3::new(0.6, 0.0, 0.3)).norm() < 1e-12);
+        let up = ScanFrames::default().up_in_scan();
+        assert!((t * up + Vector3::z()).norm() < 1e-12);
+    }
+
+    #[test]
+    fn rpy_is_zyx() {
+        let p = PoseConfig {
+            xyz_m: [1.0, 2.0, 3.0],
+            rpy_deg: [10.0, 20.0, 30.0],
+        };
+        let [r, pi, y] = [10f64, 20.0, 30.0].map(f64::to_radians);
+        let expect = Rotation3::from_axis_angle(&Vector3::z_axis(), y)
+            * Rotation3::from_axis_angle(&Vector3::y_axis(), pi)
+            * Rotation3::from_axis_angle(&Vector3::x_axis(), r);
+        assert!(
+            (p.pose().rotation.to_rotation_matrix().matrix() - expect.matrix())
+                .abs()
+                .max()
+                < 1e-12
+        );
+        // Composition order: the vehicle pose applies after the mounting.
+        let f = ScanFrames {
+            camera_in_vehicle: p,
+            vehicle_in_world: PoseConfig {
+                xyz_m: [0.0, 0.0, 5.0],
+                rpy_deg: [0.0, 0.0, 90.0],
+            },
+        };
+        let w = f.t_world_scan() * Point3::origin();
+        assert!((w.coords - Vector3::new(-2.0, 1.0, 8.0)).norm() < 1e-12, "{w}");
     }
 
     #[test]

@@ -5,6 +5,8 @@
 //! that writes files writes them under `--out DIR`, including `summary.json` and the resolved
 //! `config.toml`.
 
+pub mod arm;
+
 use crate::error::Result;
 use crate::output::OutDir;
 use clap::{Parser, Subcommand};
@@ -38,6 +40,8 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Inspect the arm of a model: fk, ik, id, jacobian, mass-matrix.
+    Arm(arm::ArmArgs),
     /// What a PLY file holds: points, faces, properties, encoding, bounding box.
     Info(info::InfoArgs),
     /// Seabed and clusters of a scan, as coloured PLYs (seabed red, object green).
@@ -95,6 +99,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         quiet: cli.quiet,
     };
     let report: Report = match &cli.command {
+        Command::Arm(a) => arm::run(a, &ctx)?,
         Command::Info(args) => info::run(args, &ctx)?,
         Command::Segment(args) => segment::run(args, &ctx)?,
         Command::Check(args) => check::run(args, &ctx)?,

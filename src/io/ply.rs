@@ -22,7 +22,8 @@
 //! Binary records without lists are decoded straight from the bytes at a fixed stride.
 //!
 //! Writing: binary little-endian, `double` coordinates and normals, `uchar` colours,
-//! `element face` with `list uchar int vertex_indices`.
+//! `element face` with `list uchar int vertex_indices`; line sets ([`write_lines`]) with
+//! `uchar` vertex colours and `element edge` (`int vertex1`, `int vertex2`).
 
 use super::ply_read::{self, Faces};
 use crate::cloud::PointCloud;
@@ -233,4 +234,52 @@ pub fn write_ply(w: &mut dyn Write, cloud: &PointCloud, triangles: &[[u32; 3]]) 
         cloud.normals.as_deref(),
         Some(triangles),
     )
+}
+
+/// Writes a line set as binary little-endian PLY: coloured vertices and an `edge` element
+/// (`vertex1`, `vertex2`), which CloudCompare, MeshLab and Open3D's `read_line_set` display.
+///
+/// # Errors
+/// [`Error::Failed`] if the writer fails, `colors` does not have one entry per point, or an
+/// edge index is out of range.
+pub fn write_lines(
+    w: &mut dyn Write,
+    points: &[Point3<f64>],
+    colors: &[[u8; 3]],
+    edges: &[[u32; 2]],
+) -> Result<()> {
+    let io = |e: std::io::Error| Error::failed("write PLY", e);
+    if colors.len() != points.len() {
+        return Err(Error::failed("write PLY", "one colour per line vertex is needed"));
+    }
+    if edges
+        .iter()
+        .flatten()
+        .any(|&i| i as usize >= points.len() || i > i32::MAX as u32)
+    {
+        return Err(Error::failed("write PLY", "an edge index is out of range"));
+    }
+    write!(
+        w,
+        "ply\nformat binary_little_endian 1.0\ncomment written by uvms\nelement vertex {}\n\
+         property double x\nproperty double y\nproperty double z\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\n\
+         element edge {}\nproperty int vertex1\nproperty int vertex2\nend_header\n",
+        points.len(),
+        edges.len()
+    )
+    .map_err(io)?;
+    let mut buf = Vec::with_capacity(points.len() * 27 + edges.len() * 8);
+    for (p, c) in points.iter().zip(colors) {
+        for v in p.coords.iter() {
+            buf.extend_from_slice(&v.to_le_bytes());
+        }
+        buf.extend_from_slice(c);
+    }
+    for e in edges {
+        for &i in e {
+            buf.extend_from_slice(&(i as i32).to_le_bytes());
+        }
+    }
+    w.write_all(&buf).map_err(io)
 }

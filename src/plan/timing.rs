@@ -1,0 +1,286 @@
+//! Timing: uniform resampling at the tool speed, the orientation-rate limit, and the approach,
+//! dwell and retreat segments.
+//!
+//! The projected path is resampled at uniform arc length, with the spacing nearest to
+//! `speed · sample_period` that divides the path's length, and timed at exactly the tool speed.
+//! Where consecutive tool frames differ by more than `max_rate · Δt`, that step is stretched in
+//! time to `angle / max_rate` (the tool slows down; spacing stays uniform). Before the path, the
+//! tool approaches the first point along `k` from a stand-off at the (lower) approach speed, so
+//! that contact builds up without chattering (the seed: "the tool's approach speed should be
+//! maintained as relatively low"); it may then dwell there until the force has settled (the
+//! seed's advice for critical operations); after the last point it retreats along `-k`. No force
+//! is demanded during the approach and the retreat.
+
+use super::project::{PathPoint, non_negative, positive};
+use crate::error::{Error, Result};
+use crate::trajectory::{Phase, Sample};
+use nalgebra::UnitQuaternion;
+use serde::{Deserialize, Serialize};
+
+/// Settings of the timing.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TimingConfig {
+    /// Tool speed along the path in contact, m/s.
+    pub speed_m_s: f64,
+    /// Nominal time between samples, s (the spacing is `speed · sample_period`).
+    pub sample_period_s: f64,
+    /// Distance from the surface where the approach starts and the retreat ends, metres.
+    pub standoff_m: f64,
+    /// Speed of the approach along `k`, m/s.
+    pub approach_speed_m_s: f64,
+    /// Time to hold the first point before moving, s (0: no dwell).
+    pub dwell_s: f64,
+    /// Speed of the retreat along `-k`, m/s.
+    pub retreat_speed_m_s: f64,
+}
+
+impl Default for TimingConfig {
+    fn default() -> Self {
+        TimingConfig {
+            speed_m_s: 0.02,
+            sample_period_s: 0.05,
+            standoff_m: 0.05,
+            approach_speed_m_s: 0.005,
+            dwell_s: 0.0,
+            retreat_speed_m_s: 0.01,
+        }
+    }
+}
+
+impl TimingConfig {
+    /// Checks the values.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the first bad field.
+    pub fn validate(&self) -> Result<()> {
+        positive("timing.speed_m_s", self.speed_m_s)?;
+        positive("timing.sample_period_s", self.sample_period_s)?;
+        non_negative("timing.standoff_m", self.standoff_m)?;
+        positive("timing.approach_speed_m_s", self.approach_speed_m_s)?;
+        non_negative("timing.dwell_s", self.dwell_s)?;
+        positive("timing.retreat_speed_m_s", self.retreat_speed_m_s)
+    }
+
+    /// The nominal distance between samples in contact, metres.
+    pub fn spacing(&self) -> f64 {
+        self.speed_m_s * self.sample_period_s
+    }
+}
+
+/// Resamples a path at uniform arc length. Returns the samples (both ends kept) and the spacing
+/// used: the length divided by the whole number of intervals nearest to `length / spacing`.
+///
+/// # Errors
+/// [`Error::Failed`] if the path is shorter than half a spacing.
+pub fn resample(points: &[PathPoint], spacing: f64) -> Result<(Vec<PathPoint>, f64)> {
+    let mut arc = Vec::with_capacity(points.len());
+    let mut s = 0.0;
+    for (i, p) in points.iter().enumerate() {
+        if i > 0 {
+            s += (p.point - points[i - 1].point).norm();
+        }
+        arc.push(s);
+    }
+    if points.is_empty() || s < spacing / 2.0 {
+        return Err(Error::failed(
+            "plan",
+            format!(
+                "the projected path is {:.1} mm long, too short to sample at {:.1} mm",
+                s * 1e3,
+                spacing * 1e3
+            ),
+        ));
+    }
+    let n = ((s / spacing).round() as usize).max(1);
+    let h = s / n as f64;
+    let mut out = Vec::with_capacity(n + 1);
+    let mut j = 0;
+    for k in 0..=n {
+        let target = if k == n { s } else { k as f64 * h };
+        while j + 2 < arc.len() && arc[j + 1] < target {
+            j += 1;
+        }
+        let (a0, a1) = (arc[j], arc[(j + 1).min(arc.len() - 1)]);
+        let u = if a1 > a0 {
+            ((target - a0) / (a1 - a0)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        out.push(points[j].lerp(&points[(j + 1).min(points.len() - 1)], u));
+    }
+    Ok((out, h))
+}
+
+/// Facts about the schedule for the summary.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ScheduleStats {
+    /// Contact steps slowed down by the orientation-rate limit.
+    pub rate_limited_steps: usize,
+    /// Duration of the approach, s.
+    pub approach_s: f64,
+    /// Duration of the dwell, s.
+    pub dwell_s: f64,
+    /// Duration of the motion in contact, s.
+    pub contact_s: f64,
+    /// Duration of the retreat, s.
+    pub retreat_s: f64,
+}
+
+/// Times the resampled path (`spacing` apart) with its tool orientations and adds the approach,
+/// dwell and retreat. `max_rate` is in radians per second. Samples are in the path's frame.
+pub fn schedule(
+    path: &[PathPoint],
+    orientations: &[UnitQuaternion<f64>],
+    spacing: f64,
+    cfg: &TimingConfig,
+    max_rate: f64,
+) -> (Vec<Sample>, ScheduleStats) {
+    let mut stats = ScheduleStats::default();
+    let (Some(first), Some(last)) = (path.first(), path.last()) else {
+        return (Vec::new(), stats);
+    };
+    let (q0, q1) = (orientations[0], orientations[orientations.len() - 1]);
+    let k0 = q0 * nalgebra::Vector3::z();
+    let k1 = q1 * nalgebra::Vector3::z();
+    let sample = |t, p: &PathPoint, q: UnitQuaternion<f64>, force, phase| Sample {
+        t,
+        position: p.point,
+        orientation: q,
+        k: q * nalgebra::Vector3::z(),
+        force,
+        phase,
+        fallback: p.fallback,
+    };
+    let mut out = Vec::new();
+    // Approach: from the stand-off along k (outside the surface) up to the first point.
+    let steps = |length: f64, speed: f64| ((length / (speed * cfg.sample_period_s)).ceil() as usize).max(1);
+    let mut t = 0.0;
+    if cfg.standoff_m > 0.0 {
+        let n = steps(cfg.standoff_m, cfg.approach_speed_m_s);
+        let dt = cfg.standoff_m / cfg.approach_speed_m_s / n as f64;
+        for i in 0..n {
+            let mut p = *first;
+            p.point -= k0 * cfg.standoff_m * (1.0 - i as f64 / n as f64);
+            out.push(sample(t, &p, q0, 0.0, Phase::Approach));
+            t += dt;
+        }
+        stats.approach_s = t;
+    }
+    if cfg.dwell_s > 0.0 {
+        let n = ((cfg.dwell_s / cfg.sample_period_s).ceil() as usize).max(1);
+        let dt = cfg.dwell_s / n as f64;
+        for _ in 0..n {
+            out.push(sample(t, first, q0, first.force, Phase::Dwell));
+            t += dt;
+        }
+        stats.dwell_s = cfg.dwell_s;
+    }
+    let t_contact = t;
+    let dt = spacing / cfg.speed_m_s;
+    for (i, (p, q)) in path.iter().zip(orientations).enumerate() {
+        if i > 0 {
+            let turn = orientations[i - 1].angle_to(q) / max_rate;
+            if turn > dt {
+                stats.rate_limited_steps += 1;
+            }
+            t += dt.max(turn);
+        }
+        out.push(sample(t, p, *q, p.force, Phase::Contact));
+    }
+    stats.contact_s = t - t_contact;
+    if cfg.standoff_m > 0.0 {
+        let n = steps(cfg.standoff_m, cfg.retreat_speed_m_s);
+        let dt = cfg.standoff_m / cfg.retreat_speed_m_s / n as f64;
+        for i in 1..=n {
+            t += dt;
+            let mut p = *last;
+            p.point -= k1 * cfg.standoff_m * (i as f64 / n as f64);
+            out.push(sample(t, &p, q1, 0.0, Phase::Retreat));
+        }
+        stats.retreat_s = cfg.standoff_m / cfg.retreat_speed_m_s;
+    }
+    (out, stats)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Point3, Vector3};
+
+    fn pp(x: f64, y: f64) -> PathPoint {
+        PathPoint {
+            point: Point3::new(x, y, 0.0),
+            normal: Vector3::z(),
+            fallback: false,
+            tau: x,
+            force: 60.0,
+        }
+    }
+
+    #[test]
+    fn resample_is_uniform_along_a_polyline() {
+        // An L-shaped path 0.3 + 0.1 m long with uneven input spacing.
+        let mut pts: Vec<PathPoint> = [0.0, 0.01, 0.1, 0.25, 0.3].iter().map(|&x| pp(x, 0.0)).collect();
+        pts.extend([0.03, 0.1].iter().map(|&y| pp(0.3, y)));
+        let (out, h) = resample(&pts, 0.0011).unwrap();
+        assert_eq!(out.len(), 365); // 0.4 / 0.0011 = 363.6 → 364 intervals
+        assert!((h - 0.4 / 364.0).abs() < 1e-15);
+        for w in out.windows(2) {
+            let d = (w[1].point - w[0].point).norm();
+            // Chords across the corner are shorter than the arc; elsewhere exact.
+            assert!(d <= h + 1e-12 && d > h * 0.7, "{d}");
+        }
+        assert_eq!(out[0].point, pts[0].point);
+        assert_eq!(out[out.len() - 1].point, pts[pts.len() - 1].point);
+        assert!(resample(&pts[..1], 0.001).is_err());
+    }
+
+    #[test]
+    fn schedule_speeds_and_rate_limit() {
+        let cfg = TimingConfig {
+            dwell_s: 1.0,
+            ..TimingConfig::default()
+        };
+        let (path, h) = resample(&[pp(0.0, 0.0), pp(0.1, 0.0)], cfg.spacing()).unwrap();
+        // Orientations turning 2° per sample over the middle of the path, else constant.
+        let q: Vec<UnitQuaternion<f64>> = (0..path.len())
+            .map(|i| {
+                let turns = i.clamp(40, 60) - 40;
+                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), (2.0 * turns as f64).to_radians())
+            })
+            .collect();
+        let max_rate = 30f64.to_radians();
+        let (s, stats) = schedule(&path, &q, h, &cfg, max_rate);
+        let contact: Vec<&Sample> = s.iter().filter(|x| x.phase == Phase::Contact).collect();
+        assert_eq!(contact.len(), 101);
+        assert_eq!(stats.rate_limited_steps, 20);
+        for w in contact.windows(2) {
+            let dt = w[1].t - w[0].t;
+            let rate = w[0].orientation.angle_to(&w[1].orientation) / dt;
+            assert!(rate <= max_rate * (1.0 + 1e-9));
+            let v = (w[1].position - w[0].position).norm() / dt;
+            if w[0].orientation == w[1].orientation {
+                assert!((v - 0.02).abs() < 1e-12, "{v}");
+            }
+        }
+        // 2° at 30°/s takes 1/15 s instead of 0.05 s.
+        assert!((stats.contact_s - (80.0 * 0.05 + 20.0 / 15.0)).abs() < 1e-9);
+        // Approach: 0.05 m at 5 mm/s, starting 0.05 m back along -k (k = z here: above the path).
+        assert!((stats.approach_s - 10.0).abs() < 1e-9);
+        assert!((s[0].position - Point3::new(0.0, 0.0, -0.05)).norm() < 1e-12);
+        assert_eq!(s[0].force, 0.0);
+        let dwell: Vec<&Sample> = s.iter().filter(|x| x.phase == Phase::Dwell).collect();
+        assert_eq!(dwell.len(), 20);
+        assert!(
+            dwell
+                .iter()
+                .all(|d| d.position == path[0].point && d.force == 60.0)
+        );
+        let last = s.last().unwrap();
+        assert_eq!(last.phase, Phase::Retreat);
+        assert!((last.position - Point3::new(0.1, 0.0, -0.05)).norm() < 1e-12);
+        assert!((s.last().unwrap().t - (10.0 + 1.0 + stats.contact_s + 5.0)).abs() < 1e-9);
+        assert!(s.windows(2).all(|w| w[1].t > w[0].t));
+    }
+}
