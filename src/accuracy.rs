@@ -218,23 +218,41 @@ pub struct TruthErrors {
     pub add_m: f64,
 }
 
+/// Distance from a point to the closest point of the model under the estimated pose.
+type ClosestDistance = dyn Fn(&Point3<f64>) -> f64 + Sync;
+
 /// Rotation/translation error, ADD-S and ADD of `estimate` against `truth` for the model points
-/// `model` (model frame).
+/// `model` (model frame). With the model's `mesh`, ADD-S takes the closest point on the surface
+/// under the estimated pose (exact, free of the sampling's spacing); without it, the nearest
+/// model point.
 ///
 /// # Errors
 /// [`Error::Failed`] (stage `accuracy`) for an empty model.
-pub fn truth_errors(model: &[Point3<f64>], estimate: &Pose, truth: &Pose) -> Result<TruthErrors> {
+pub fn truth_errors(
+    model: &[Point3<f64>],
+    mesh: Option<&crate::mesh::TriangleMesh>,
+    estimate: &Pose,
+    truth: &Pose,
+) -> Result<TruthErrors> {
     if model.is_empty() {
         return Err(Error::failed("accuracy", "no model points for ADD-S"));
     }
-    let est: Vec<Point3<f64>> = model.iter().map(|p| estimate * p).collect();
-    let index = KdIndex::new(&est)?;
+    let closest: Box<ClosestDistance> = match mesh {
+        Some(m) => {
+            let surface = Surface::new(&m.transformed(estimate))?;
+            Box::new(move |q| surface.project(q).distance)
+        }
+        None => {
+            let est: Vec<Point3<f64>> = model.iter().map(|p| estimate * p).collect();
+            let index = KdIndex::new(&est)?;
+            Box::new(move |q| index.nearest(q).map_or(0.0, |n| n.distance))
+        }
+    };
     let (add_s, add) = model
         .par_iter()
         .map(|p| {
             let t = truth * p;
-            let nearest = index.nearest(&t).map_or(0.0, |n| n.distance);
-            (nearest, (t - estimate * p).norm())
+            (closest(&t), (t - estimate * p).norm())
         })
         .collect::<Vec<_>>()
         .into_iter()
@@ -311,12 +329,12 @@ mod tests {
             .collect();
         let truth = Isometry3::translation(0.0, 0.0, 1.0);
         let turned = truth * Isometry3::rotation(Vector3::z() * 0.5);
-        let e = truth_errors(&model, &turned, &truth).unwrap();
+        let e = truth_errors(&model, None, &turned, &truth).unwrap();
         assert!(e.add_s_m < 1e-4, "{e:?}");
         assert!(e.add_m > 0.04);
         assert!((e.rotation_error_deg - 0.5f64.to_degrees()).abs() < 1e-9);
         let shifted = Translation3::new(0.002, 0.0, 0.0) * truth;
-        let e = truth_errors(&model, &shifted, &truth).unwrap();
+        let e = truth_errors(&model, None, &shifted, &truth).unwrap();
         assert!((e.translation_error_m - 0.002).abs() < 1e-12);
         assert!(e.add_s_m > 0.001 && e.add_s_m < 0.002);
     }

@@ -402,7 +402,7 @@ pub fn check(
         trajectory_accuracy(&object.points, &camera, &scan_s, &ref_s, &cfg.accuracy)
     })?;
     let truth = match &opts.truth {
-        Some(t) => Some(truth_errors(&model.points, &pose, t)?),
+        Some(t) => Some(truth_errors(&model.points, model.mesh.as_ref(), &pose, t)?),
         None => None,
     };
     let reference_axes = PrincipalAxes {

@@ -68,6 +68,7 @@ pub fn check_summary(r: &CheckResult) -> serde_json::Value {
     let mut v = json!({
         "t_scan_reference": pose_to_rows(&reg.t_scan_reference),
         "fitness": reg.fitness,
+        "scan_fitness": reg.scan_fitness,
         "inlier_rmse_m": reg.inlier_rmse_m,
         "evaluation_distance_m": reg.evaluation_distance_m,
         "accuracy_rms_m": r.accuracy.rms_m,
@@ -87,6 +88,7 @@ pub fn check_summary(r: &CheckResult) -> serde_json::Value {
         "reference_extent": r.reference_axes.spans.as_slice(),
         "scan_surface_triangles": r.scan_surface.triangles.len(),
         "timings_s": r.timings,
+        "register_timings_s": reg.timings,
         "total_time_s": r.timings.total(),
     });
     if let Some(i) = &reg.init {

@@ -10,8 +10,9 @@
 //! M-estimator (Tukey, Huber or Cauchy) scaled by the robust spread of the residuals
 //! (1.4826 × MAD), iteratively reweighted. The gate starts at `initial_gate_m` and shrinks to
 //! `gate_sigmas` × that spread (never below `min_gate_m`, never growing), as in KISS-ICP's
-//! adaptive threshold. Iteration stops when the step's rotation and translation are both below
-//! their tolerances while the gate has settled.
+//! adaptive threshold. Iteration stops, once the gate has settled, when the step's rotation and
+//! translation are both below their tolerances or when the step changes the residuals by less than
+//! `motion_tolerance` of their spread.
 //!
 //! Correspondence search and the accumulation of the normal equations run in parallel over
 //! fixed-size chunks whose partial sums are added in chunk order, so the result does not depend on
@@ -88,6 +89,9 @@ pub struct IcpConfig {
     pub rotation_tolerance_rad: f64,
     /// Convergence: largest translation step, metres.
     pub translation_tolerance_m: f64,
+    /// Convergence: the step changes the residuals by less than this fraction of their robust
+    /// spread (RMS).
+    pub motion_tolerance: f64,
     /// Directions of the (scaled) normal equations with an eigenvalue below this fraction of the
     /// largest are treated as unconstrained and not updated.
     pub degenerate_ratio: f64,
@@ -109,6 +113,7 @@ impl Default for IcpConfig {
             min_sigma_m: 0.0001,
             rotation_tolerance_rad: 1e-5,
             translation_tolerance_m: 1e-6,
+            motion_tolerance: 1e-2,
             degenerate_ratio: 1e-3,
             min_correspondences: 30,
             max_source_points: 20_000,
@@ -144,6 +149,9 @@ impl IcpConfig {
         }
         if !pos(self.min_sigma_m) {
             return bad("min_sigma_m", "must be > 0");
+        }
+        if !pos(self.motion_tolerance) {
+            return bad("motion_tolerance", "must be > 0");
         }
         if !pos(self.rotation_tolerance_rad) || !pos(self.translation_tolerance_m) {
             return bad("rotation_tolerance_rad", "tolerances must be > 0");
@@ -281,12 +289,12 @@ pub fn icp_point_to_plane(
         let sigma = spread.max(gate / cfg.gate_sigmas);
         // Weighted normal equations about the paired points' centroid.
         let centre = pairs.iter().fold(Vector3::zeros(), |a, p| a + p.x.coords) / pairs.len() as f64;
-        let (h, b, r2) = pairs
+        let (h, b, r2, weight_sum) = pairs
             .par_chunks(CHUNK)
             .map(|chunk| {
                 let mut h = Matrix6::zeros();
                 let mut b = Vector6::zeros();
-                let mut r2 = 0.0;
+                let (mut r2, mut ws) = (0.0, 0.0);
                 for p in chunk {
                     let x = p.x.coords - centre;
                     r2 += x.norm_squared();
@@ -298,13 +306,14 @@ pub fn icp_point_to_plane(
                     let j = Vector6::new(c.x, c.y, c.z, p.n.x, p.n.y, p.n.z);
                     h += w * j * j.transpose();
                     b += w * p.residual * j;
+                    ws += w;
                 }
-                (h, b, r2)
+                (h, b, r2, ws)
             })
             .collect::<Vec<_>>()
             .into_iter()
-            .fold((Matrix6::zeros(), Vector6::zeros(), 0.0), |a, c| {
-                (a.0 + c.0, a.1 + c.1, a.2 + c.2)
+            .fold((Matrix6::zeros(), Vector6::zeros(), 0.0, 0.0), |a, c| {
+                (a.0 + c.0, a.1 + c.1, a.2 + c.2, a.3 + c.3)
             });
         // Rotation scaled by the pairs' RMS radius, so that all six unknowns are lengths.
         let radius = (r2 / pairs.len() as f64).sqrt().max(1e-9);
@@ -312,6 +321,8 @@ pub fn icp_point_to_plane(
         let hs = Matrix6::from_fn(|r, c| h[(r, c)] * scale[r] * scale[c]);
         let step_scaled = solve_constrained(&hs, &(-b.component_mul(&scale)), cfg.degenerate_ratio);
         let step = step_scaled.component_mul(&scale);
+        // How much the step changes the residuals, RMS metres (the motion the data can see).
+        let observed = (step_scaled.dot(&(hs * step_scaled)) / weight_sum.max(1e-300)).sqrt();
         let omega = Vector3::new(step[0], step[1], step[2]);
         let dt = Vector3::new(step[3], step[4], step[5]);
         let rot = UnitQuaternion::from_scaled_axis(omega);
@@ -340,7 +351,9 @@ pub fn icp_point_to_plane(
         gate = new_gate;
         let small_pose_step =
             omega.norm() < cfg.rotation_tolerance_rad && dt.norm() < cfg.translation_tolerance_m;
-        if settled && small_pose_step {
+        // Also converged when the step no longer changes the residuals (it only wanders along a
+        // direction the data barely constrain, e.g. a fouled bottle's turn about its axis).
+        if settled && (small_pose_step || observed < cfg.motion_tolerance * spread) {
             out.converged = true;
             break;
         }

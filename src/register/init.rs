@@ -12,7 +12,9 @@
 //!    (scan → model, since every scanned point must lie on the model while most model points are
 //!    unseen) and is scored by the truncated RMS distance of the scan's points to the model,
 //!    `√mean(min(d², τ²))`;
-//! 4. the `refine` best get a longer ICP on more points and are scored again; the best wins.
+//! 4. the `refine` best distinct candidates (laying the model's major axis differently, or turned
+//!    by more than 90° — so both end-to-end orientations of a bottle get there) get a longer ICP
+//!    on more points and are scored again; the best wins.
 //!
 //! Frames: poses map reference-model coordinates into scan coordinates (`t_scan_reference`).
 
@@ -20,7 +22,8 @@ use crate::cloud::pca::PrincipalAxes;
 use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::register::ReferenceModel;
-use crate::register::icp::{IcpConfig, icp_point_to_plane};
+use crate::register::icp::{IcpConfig, Surfel, icp_point_to_plane};
+use crate::spatial::KdIndex;
 use nalgebra::{Matrix3, Point3, Rotation3, Translation3, Unit, UnitQuaternion, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -33,6 +36,8 @@ pub struct InitConfig {
     pub rotation_steps: usize,
     /// Scan points (evenly strided) for the coarse ICP every candidate gets.
     pub coarse_points: usize,
+    /// Model points (evenly strided) for the coarse ICP.
+    pub coarse_model_points: usize,
     /// Iterations of the coarse ICP.
     pub coarse_iterations: usize,
     /// Best candidates refined further.
@@ -52,6 +57,7 @@ impl Default for InitConfig {
         InitConfig {
             rotation_steps: 8,
             coarse_points: 300,
+            coarse_model_points: 4000,
             coarse_iterations: 12,
             refine: 4,
             sample_points: 1000,
@@ -71,8 +77,9 @@ pub struct InitOutcome {
     pub candidates: usize,
     /// Truncated RMS scan → model distance of the winner, metres.
     pub score_m: f64,
-    /// The same for the best candidate that differs from the winner by more than 10°, metres
-    /// (how clearly the winner won; `None` if every refined candidate agrees).
+    /// The same for the best refined candidate that lays the model's major axis more than 30°
+    /// from the winner's (e.g. the other end-to-end orientation), metres: how clearly the winner
+    /// won. `None` if no such candidate was refined.
     pub runner_up_score_m: Option<f64>,
 }
 
@@ -106,14 +113,27 @@ pub fn candidate_rotations(model: &Matrix3<f64>, scan: &Matrix3<f64>, steps: usi
 }
 
 /// Truncated RMS distance (metres) from `scan` points mapped into the model frame by `pose⁻¹` to
-/// the model, and the trimmed mean offset (model frame) of the pairs within `tau`.
-fn score(model: &ReferenceModel, scan: &[Point3<f64>], pose: &Pose, tau: f64) -> (f64, Vector3<f64>) {
+/// the model's surface, and the trimmed mean offset (model frame) of the pairs within `tau`. The
+/// distance to the surface is measured along the nearest model point's normal, plus whatever the
+/// in-plane offset exceeds the model's point `spacing` by, so that a sparse model does not raise
+/// the floor of the score.
+fn score(
+    model: Surfel<'_>,
+    spacing: f64,
+    scan: &[Point3<f64>],
+    pose: &Pose,
+    tau: f64,
+) -> (f64, Vector3<f64>) {
     let inv = pose.inverse();
     let (mut sum, mut off, mut n) = (0.0, Vector3::zeros(), 0usize);
     for s in scan {
         let x = inv * s;
         if let Some(nb) = model.index.nearest(&x) {
-            sum += nb.distance.min(tau).powi(2);
+            let v = model.points[nb.index] - x;
+            let along = v.dot(&model.normals[nb.index]);
+            let across = (v.norm_squared() - along * along).max(0.0).sqrt();
+            let d2 = along * along + (across - spacing).max(0.0).powi(2);
+            sum += d2.min(tau * tau);
             if nb.distance < tau {
                 off += model.points[nb.index] - x;
                 n += 1;
@@ -168,18 +188,38 @@ pub fn initial_guess(
     let rotations = candidate_rotations(&model.shape.axes, &scan_shape.axes, cfg.rotation_steps);
     let candidates = rotations.len();
     // Short ICP from scan to model (every scanned point lies on the model) and the score after it.
-    let refine = |pts: &[Point3<f64>], pose: &Pose, iterations: usize| -> (Pose, f64) {
+    // The coarse stage works on a decimated model: smaller tree, faster queries.
+    let stride = model
+        .points
+        .len()
+        .div_ceil(cfg.coarse_model_points.max(100))
+        .max(1);
+    let small_points: Vec<Point3<f64>> = model.points.iter().step_by(stride).copied().collect();
+    let small_normals: Vec<Vector3<f64>> = model.normals.iter().step_by(stride).copied().collect();
+    let small_index = KdIndex::new(&small_points)?;
+    let small = Surfel {
+        points: &small_points,
+        normals: &small_normals,
+        index: &small_index,
+    };
+    let full = model.surfel();
+    let small_spacing = model.spacing_m * (stride as f64).sqrt();
+    let refine = |(model, spacing): (Surfel<'_>, f64),
+                  pts: &[Point3<f64>],
+                  pose: &Pose,
+                  iterations: usize|
+     -> (Pose, f64) {
         let short = IcpConfig {
             max_iterations: iterations.max(1),
             min_gate_m: (0.1 * tau).max(1e-6),
             gate_shrink: 0.85,
             ..IcpConfig::default()
         };
-        let s0 = score(model, pts, pose, tau).0;
-        match icp_point_to_plane(pts, model.surfel(), None, &pose.inverse(), gate, &short) {
+        let s0 = score(model, spacing, pts, pose, tau).0;
+        match icp_point_to_plane(pts, model, None, &pose.inverse(), gate, &short) {
             Ok(o) => {
                 let p = o.t_target_source.inverse();
-                let s = score(model, pts, &p, tau).0;
+                let s = score(model, spacing, pts, &p, tau).0;
                 if s <= s0 { (p, s) } else { (*pose, s0) }
             }
             Err(_) => (*pose, s0),
@@ -195,24 +235,40 @@ pub fn initial_guess(
             );
             for _ in 0..3 {
                 // Moving the model by −off (model frame) moves it onto the scan's points.
-                let (_, off) = score(model, &coarse, &pose, gate);
+                let (_, off) = score(small, small_spacing, &coarse, &pose, gate);
                 pose *= Translation3::from(-off);
             }
-            refine(&coarse, &pose, cfg.coarse_iterations)
+            refine((small, small_spacing), &coarse, &pose, cfg.coarse_iterations)
         })
         .collect();
     scored.sort_by(|a, b| a.1.total_cmp(&b.1));
-    scored.truncate(cfg.refine);
+    // The best `refine` that are distinct: they lay the model's major axis differently (> 30°,
+    // e.g. the two end-to-end orientations of a bottle) or differ by more than 90° overall.
+    let major = model.shape.axes.column(0).into_owned();
+    let mut chosen: Vec<(Pose, f64)> = Vec::with_capacity(cfg.refine);
+    for c in &scored {
+        let distinct = chosen.iter().all(|(p, _)| {
+            let axes = (p.rotation * major).angle(&(c.0.rotation * major));
+            axes > 30f64.to_radians() || (p.rotation.inverse() * c.0.rotation).angle() > 90f64.to_radians()
+        });
+        if distinct {
+            chosen.push(*c);
+            if chosen.len() == cfg.refine {
+                break;
+            }
+        }
+    }
+    let scored = chosen;
     let mut refined: Vec<(Pose, f64)> = scored
         .par_iter()
-        .map(|(pose, _)| refine(&sample, pose, cfg.icp_iterations))
+        .map(|(pose, _)| refine((full, model.spacing_m), &sample, pose, cfg.icp_iterations))
         .collect();
     refined.sort_by(|a, b| a.1.total_cmp(&b.1));
     let (best, best_s) = refined[0];
     let runner_up = refined
         .iter()
         .skip(1)
-        .find(|(p, _)| (best.rotation.inverse() * p.rotation).angle() > 10f64.to_radians())
+        .find(|(p, _)| (best.rotation * major).angle(&(p.rotation * major)) > 30f64.to_radians())
         .map(|r| r.1);
     Ok(InitOutcome {
         t_scan_reference: best,

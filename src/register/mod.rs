@@ -35,6 +35,8 @@ pub struct ReferenceModel {
     pub shape: PrincipalAxes,
     /// The model's mesh when it came as one.
     pub mesh: Option<TriangleMesh>,
+    /// Median distance between neighbouring model points, metres.
+    pub spacing_m: f64,
 }
 
 impl ReferenceModel {
@@ -90,12 +92,14 @@ impl ReferenceModel {
     ) -> Result<Self> {
         let index = KdIndex::new(&points).map_err(|e| Error::input(what, e))?;
         let shape = principal_axes(&points, 0.01).ok_or_else(|| Error::input(what, "no points"))?;
+        let spacing_m = crate::triangulate::median_spacing(&points, &index);
         Ok(ReferenceModel {
             points,
             normals,
             index,
             shape,
             mesh,
+            spacing_m,
         })
     }
 }
@@ -130,7 +134,8 @@ pub struct RegisterConfig {
     pub visibility_rounds: usize,
     /// Distance for the reported fitness and inlier RMSE, metres; 0 uses ICP's last gate.
     pub evaluation_distance_m: f64,
-    /// Fail when the fitness is below this.
+    /// Fail when the scan fitness (the fraction of the scanned object the aligned model explains)
+    /// is below this.
     pub min_fitness: f64,
 }
 
@@ -145,7 +150,7 @@ impl Default for RegisterConfig {
             symmetric: true,
             visibility_rounds: 2,
             evaluation_distance_m: 0.0,
-            min_fitness: 0.2,
+            min_fitness: 0.3,
         }
     }
 }
@@ -161,8 +166,12 @@ pub struct Registration {
     pub init: Option<InitOutcome>,
     /// Reference points visible from the camera at the final pose.
     pub visible_points: usize,
-    /// Fraction of the visible reference points with a scan point within the evaluation distance.
+    /// Fraction of the visible reference points with a scan point within the evaluation distance
+    /// (Open3D's `fitness`, the reference being the source).
     pub fitness: f64,
+    /// Fraction of the scanned object's points with a reference point within the evaluation
+    /// distance: how much of the scan the model explains (insensitive to the model's density).
+    pub scan_fitness: f64,
     /// RMS distance of those pairs, metres.
     pub inlier_rmse_m: f64,
     /// The evaluation distance, metres.
@@ -173,6 +182,8 @@ pub struct Registration {
     pub converged: bool,
     /// The last ICP round's outcome.
     pub icp: IcpOutcome,
+    /// Wall time of the sub-stages (`init`, `hidden_points`, `icp` per round).
+    pub timings: crate::perception::Timings,
 }
 
 /// Registers `model` onto the scanned object `scan` (scan frame; `scan_normals` unit, oriented
@@ -193,11 +204,12 @@ pub fn register(
     if cfg.visibility_rounds == 0 {
         return Err(Error::input("register.visibility_rounds", "must be ≥ 1"));
     }
+    let mut timings = crate::perception::Timings::default();
     let (initial, init_outcome) = match init {
         InitMode::Given(p) => (*p, None),
         InitMode::Auto => {
             let shape = principal_axes(scan, 0.01).ok_or_else(|| Error::failed("init", "empty scan"))?;
-            let o = initial_guess(model, scan, &shape, &cfg.init)?;
+            let o = timings.time("init", || initial_guess(model, scan, &shape, &cfg.init))?;
             (o.t_scan_reference, Some(o))
         }
     };
@@ -216,14 +228,18 @@ pub fn register(
     let mut source = Vec::new();
     let mut last = None;
     for _ in 0..cfg.visibility_rounds {
-        source = visible_source(model, &pose, &cfg.hidden_points);
+        source = timings.time("hidden_points", || {
+            visible_source(model, &pose, &cfg.hidden_points)
+        });
         let target = Surfel {
             points: scan,
             normals: scan_normals,
             index: scan_index,
         };
         let reverse = cfg.symmetric.then(|| model.surfel());
-        let o = icp_point_to_plane(&source, target, reverse, &pose, gate, &cfg.icp)?;
+        let o = timings.time("icp", || {
+            icp_point_to_plane(&source, target, reverse, &pose, gate, &cfg.icp)
+        })?;
         iterations += o.iterations;
         pose = o.t_target_source;
         gate = (2.0 * o.gate_m).min(gate);
@@ -238,19 +254,20 @@ pub fn register(
         icp.gate_m
     };
     let (fitness, inlier_rmse_m) = evaluate(&source, scan_index, &pose, dist);
+    let (scan_fitness, _) = evaluate(scan, &model.index, &pose.inverse(), dist);
     let reached = format!(
-        "fitness {fitness:.3} at {dist:.4} m, inlier RMSE {inlier_rmse_m:.5} m, {iterations} iterations, last step \
-         {:.2e}° / {:.2e} m",
+        "fitness {fitness:.3} (scan {scan_fitness:.3}) at {dist:.4} m, inlier RMSE {inlier_rmse_m:.5} m, \
+         {iterations} iterations, last step {:.2e}° / {:.2e} m",
         icp.last_step.0.to_degrees(),
         icp.last_step.1
     );
     if !icp.converged {
         return Err(Error::failed("icp", format!("did not converge: {reached}")));
     }
-    if fitness < cfg.min_fitness {
+    if scan_fitness < cfg.min_fitness {
         return Err(Error::failed(
             "icp",
-            format!("fitness below min_fitness {}: {reached}", cfg.min_fitness),
+            format!("scan fitness below min_fitness {}: {reached}", cfg.min_fitness),
         ));
     }
     Ok(Registration {
@@ -259,11 +276,13 @@ pub fn register(
         init: init_outcome,
         visible_points: source.len(),
         fitness,
+        scan_fitness,
         inlier_rmse_m,
         evaluation_distance_m: dist,
         iterations,
         converged: true,
         icp,
+        timings,
     })
 }
 

@@ -1,0 +1,305 @@
+//! `uvms segment` and `uvms check` as a user runs them: products, summary keys, and the exit
+//! codes of degenerate input (1: no plane, no fitting cluster, ICP not converged; 2: bad files and
+//! arguments), never a panic.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn data(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(rel)
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(common::uvms_bin()).args(args).output().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn write_ply_points(path: &Path, pts: &[[f64; 3]]) {
+    let mut s = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nend_header\n",
+        pts.len()
+    );
+    for p in pts {
+        s.push_str(&format!("{} {} {}\n", p[0], p[1], p[2]));
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+#[test]
+fn check_on_the_committed_bottle_scan() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("check");
+    let scan = data("scans/bottle/scan.ply");
+    let o = run(&[
+        "--json",
+        "check",
+        scan.to_str().unwrap(),
+        "--reference",
+        data("models/bottle.ply").to_str().unwrap(),
+        "--ground-truth",
+        data("scans/bottle/truth.json").to_str().unwrap(),
+        "--up",
+        "0,-0.5,-0.87",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in [
+        "t_scan_reference",
+        "fitness",
+        "inlier_rmse_m",
+        "accuracy_rms_m",
+        "accuracy_max_m",
+        "coverage",
+        "rotation_error_deg",
+        "translation_error_m",
+        "add_s_m",
+    ] {
+        assert!(summary.get(key).is_some(), "summary lacks {key}");
+    }
+    assert!(summary["translation_error_m"].as_f64().unwrap() < 0.002);
+    assert!(summary["add_s_m"].as_f64().unwrap() < 0.002);
+    for f in [
+        "summary.json",
+        "config.toml",
+        "pose.json",
+        "aligned_reference.ply",
+        "scan_surface.ply",
+        "reference_surface.ply",
+        "object.ply",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    // The pose file reads back as the summary's pose.
+    let pose = uvms::frames::read_pose_file(&out.join("pose.json"), "t_scan_reference").unwrap();
+    assert!((pose.translation.vector.z - summary["t_scan_reference"][2][3].as_f64().unwrap()).abs() < 1e-12);
+    // The readable table is on stderr.
+    assert!(stderr(&o).contains("ADD-S"), "{}", stderr(&o));
+    // The resolved configuration runs again as given.
+    let again = run(&[
+        "check",
+        scan.to_str().unwrap(),
+        "--reference",
+        data("models/bottle.ply").to_str().unwrap(),
+        "--config",
+        out.join("config.toml").to_str().unwrap(),
+        "--init",
+        out.join("pose.json").to_str().unwrap(),
+    ]);
+    assert!(again.status.success(), "{}", stderr(&again));
+}
+
+#[test]
+fn segment_writes_the_figure_and_the_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("seg");
+    let o = run(&[
+        "--json",
+        "segment",
+        data("scans/bottle/scan.ply").to_str().unwrap(),
+        "--up",
+        "0,-0.5,-0.87",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let plane: Vec<f64> = serde_json::from_value(s["seabed_plane"].clone()).unwrap();
+    // The true mean seabed plane from truth.json.
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(data("scans/bottle/truth.json")).unwrap()).unwrap();
+    let t: Vec<f64> = serde_json::from_value(truth["seabed_plane"].clone()).unwrap();
+    let cos = plane[0] * t[0] + plane[1] * t[1] + plane[2] * t[2];
+    assert!(cos > 0.999, "{plane:?} vs {t:?}");
+    assert!((plane[3] - t[3]).abs() < 0.01, "{plane:?} vs {t:?}");
+    assert!(s["seabed_inliers"].as_u64().unwrap() > 50_000);
+    let object = s["object_cluster"].as_u64().unwrap() as usize;
+    let extent: Vec<f64> = serde_json::from_value(s["clusters"][object]["extent"].clone()).unwrap();
+    // The bottle is 0.72 m long; a good part of its length is seen.
+    assert!(extent[0] > 0.5 && extent[0] < 0.75, "{extent:?}");
+    for f in [
+        "segmented.ply",
+        "clusters.ply",
+        "object.ply",
+        "seabed.ply",
+        "summary.json",
+        "config.toml",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    // Figure 10's colours: the seabed red, the object green.
+    let (cloud, _) = uvms::io::ply::read_cloud(&out.join("segmented.ply")).unwrap();
+    let colors = cloud.colors.unwrap();
+    assert!(colors.contains(&[220, 40, 40]) && colors.contains(&[40, 200, 60]));
+}
+
+#[test]
+fn no_plane_is_exit_1() {
+    let dir = tempfile::tempdir().unwrap();
+    // A wall facing the camera (normal along z) seen with `up` along −y: no seabed in view.
+    let wall: Vec<[f64; 3]> = (0..4000)
+        .map(|i| {
+            [
+                -0.5 + 0.01 * (i % 100) as f64,
+                -0.2 + 0.01 * (i / 100) as f64,
+                1.5,
+            ]
+        })
+        .collect();
+    let scan = dir.path().join("wall.ply");
+    write_ply_points(&scan, &wall);
+    let out = dir.path().join("o");
+    let o = run(&[
+        "segment",
+        scan.to_str().unwrap(),
+        "--up",
+        "0,-1,0",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("seabed: no plane within 45° of --up"),
+        "{}",
+        stderr(&o)
+    );
+    // Too few points for any plane.
+    let few = dir.path().join("few.ply");
+    write_ply_points(&few, &wall[..50]);
+    let o = run(&["segment", few.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("seabed: no plane"), "{}", stderr(&o));
+}
+
+#[test]
+fn no_cluster_fitting_the_reference_is_exit_1() {
+    let dir = tempfile::tempdir().unwrap();
+    // A 4 cm cube as the "reference": nothing in the bottle scene is that small and that big.
+    let cube: Vec<[f64; 3]> = (0..1000)
+        .map(|i| {
+            [
+                0.004 * (i % 10) as f64,
+                0.004 * ((i / 10) % 10) as f64,
+                0.004 * (i / 100) as f64,
+            ]
+        })
+        .collect();
+    let model = dir.path().join("cube.ply");
+    write_ply_points(&model, &cube);
+    let o = run(&[
+        "check",
+        data("scans/bottle/scan.ply").to_str().unwrap(),
+        "--reference",
+        model.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("select: no cluster fits"), "{}", stderr(&o));
+}
+
+#[test]
+fn icp_not_converged_is_exit_1_with_what_it_reached() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("c.toml");
+    std::fs::write(&cfg, "[register.icp]\nmax_iterations = 2\n").unwrap();
+    let o = run(&[
+        "check",
+        data("scans/bottle/scan.ply").to_str().unwrap(),
+        "--reference",
+        data("models/bottle.ply").to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("icp: did not converge") && e.contains("fitness") && e.contains("RMSE"),
+        "{e}"
+    );
+}
+
+#[test]
+fn bad_input_is_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let scan = data("scans/bottle/scan.ply");
+    let model = data("models/bottle.ply");
+    let junk = dir.path().join("junk.ply");
+    std::fs::write(
+        &junk,
+        b"ply\nformat ascii 1.0\nelement vertex 5\nend_header\n1 2\n",
+    )
+    .unwrap();
+    let typo = dir.path().join("typo.toml");
+    std::fs::write(&typo, "[seabed]\nthreshold = 0.01\n").unwrap();
+    let cases: Vec<Vec<String>> = vec![
+        vec![
+            "segment".into(),
+            "/nonexistent/scan.ply".into(),
+            "--out".into(),
+            dir.path().join("a").display().to_string(),
+        ],
+        vec![
+            "segment".into(),
+            junk.display().to_string(),
+            "--out".into(),
+            dir.path().join("b").display().to_string(),
+        ],
+        vec![
+            "check".into(),
+            scan.display().to_string(),
+            "--reference".into(),
+            junk.display().to_string(),
+        ],
+        vec![
+            "check".into(),
+            scan.display().to_string(),
+            "--reference".into(),
+            model.display().to_string(),
+            "--init".into(),
+            "nowhere.json".into(),
+        ],
+        vec![
+            "check".into(),
+            scan.display().to_string(),
+            "--reference".into(),
+            model.display().to_string(),
+            "--up".into(),
+            "1,2".into(),
+        ],
+        vec![
+            "check".into(),
+            scan.display().to_string(),
+            "--reference".into(),
+            model.display().to_string(),
+            "--config".into(),
+            typo.display().to_string(),
+        ],
+        vec![
+            "check".into(),
+            scan.display().to_string(),
+            "--reference".into(),
+            model.display().to_string(),
+            "--ground-truth".into(),
+            junk.display().to_string(),
+        ],
+    ];
+    for args in cases {
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = run(&a);
+        assert_eq!(o.status.code(), Some(2), "{a:?}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(!e.contains("panicked"), "{a:?}: {e}");
+        // One line naming the problem (clap adds a hint line after usage errors).
+        let first = e.lines().next().unwrap_or("");
+        assert!(first.starts_with("error: "), "{a:?}: {e}");
+        assert!(
+            e.lines().count() == 1 || e.contains("--help"),
+            "{a:?}: not one line: {e}"
+        );
+    }
+}
