@@ -12,12 +12,7 @@ use uvms::trajectory::{Phase, Sample, Trajectory};
 
 /// A bottle-sized cylinder lying across the view 1 m in front of the camera.
 fn bottle() -> Cylinder {
-    Cylinder {
-        centre: Point3::new(0.0, 0.0, 1.0),
-        axis: Vector3::x(),
-        radius: 0.175,
-        half_length: 0.3,
-    }
+    Cylinder::bottle()
 }
 
 struct Scene {

@@ -40,6 +40,19 @@ use serde::{Deserialize, Serialize};
 use timing::TimingConfig;
 use tool_frame::ToolConfig;
 
+/// A unit vector perpendicular to the unit vector `a`, as close to `hint` as possible (any
+/// perpendicular when `hint` is parallel to `a`).
+pub fn perpendicular(a: &Vector3<f64>, hint: &Vector3<f64>) -> Vector3<f64> {
+    (hint - a * a.dot(hint)).try_normalize(1e-9).unwrap_or_else(|| {
+        let seed = if a.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        (seed - a * a.dot(&seed)).normalize()
+    })
+}
+
 /// The planner's configuration (`[plan]` of a pipeline file, or `uvms plan --config`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]

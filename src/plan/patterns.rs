@@ -29,7 +29,7 @@ use super::project::{
     Facing, Guide, Line, PathPoint, ProjectionConfig, Projector, SmoothSurface, bridge_holes, non_negative,
     positive, project_all,
 };
-use super::{ObjectAxes, ObjectInput, PlanInput};
+use super::{ObjectAxes, ObjectInput, PlanInput, perpendicular};
 use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
@@ -329,18 +329,6 @@ fn passes(width: f64, spacing: f64) -> (usize, f64) {
     }
     let n = (width / spacing - 1e-9).ceil().max(1.0) as usize + 1;
     (n, width / (n - 1) as f64)
-}
-
-/// A unit vector perpendicular to `a` (unit), as close to `hint` as possible.
-fn perpendicular(a: &Vector3<f64>, hint: &Vector3<f64>) -> Vector3<f64> {
-    (hint - a * a.dot(hint)).try_normalize(1e-9).unwrap_or_else(|| {
-        let seed = if a.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        };
-        (seed - a * a.dot(&seed)).normalize()
-    })
 }
 
 fn band_error(what: String) -> Error {

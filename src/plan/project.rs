@@ -521,12 +521,7 @@ mod tests {
     use crate::plan::fixtures::{Cylinder, ScanSpec, Truth, with_hole};
 
     fn bottle() -> Cylinder {
-        Cylinder {
-            centre: Point3::new(0.0, 0.0, 1.0),
-            axis: Vector3::x(),
-            radius: 0.175,
-            half_length: 0.3,
-        }
+        Cylinder::bottle()
     }
 
     #[test]
