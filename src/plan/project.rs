@@ -56,7 +56,7 @@ pub struct ProjectionConfig {
 impl Default for ProjectionConfig {
     fn default() -> Self {
         ProjectionConfig {
-            step_m: 0.0005,
+            step_m: 0.001,
             smoothing_radius_m: 0.015,
             smooth_positions: true,
             tolerance_m: 0.005,
