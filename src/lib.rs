@@ -7,18 +7,31 @@
 //! transforms; the stages and the simulation build on those. [`cli`] is the command line.
 //! Conventions: f64 everywhere, SI units, transforms `t_a_b` map `b` coordinates into `a`.
 
+pub mod accuracy;
+pub mod arm;
+pub mod body;
 pub mod cli;
 pub mod cloud;
 pub mod config;
 pub mod error;
 pub mod frames;
+pub mod integrate;
 pub mod io;
 pub mod mesh;
+pub mod model;
+pub mod multibody;
 pub mod output;
+pub mod perception;
 pub mod plan;
+pub mod plant;
+pub mod register;
+pub mod segment;
 pub mod spatial;
+pub mod spatial_algebra;
 pub mod surface;
 pub mod synth;
 pub mod trajectory;
+pub mod triangulate;
+pub mod vehicle;
 
 pub use error::{Error, Result};

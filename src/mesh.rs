@@ -26,6 +26,42 @@ impl TriangleMesh {
         }
     }
 
+    /// `n` points spread uniformly over the surface (area-weighted, seeded `ChaCha8Rng`) with the
+    /// normals of the triangles they lie on. Degenerate triangles get none; an empty or
+    /// zero-area mesh gives none.
+    pub fn sample_surface(&self, n: usize, seed: u64) -> (Vec<Point3<f64>>, Vec<Vector3<f64>>) {
+        use rand::{RngExt, SeedableRng};
+        let nv = self.vertices.len();
+        let mut cumulative = Vec::with_capacity(self.triangles.len());
+        let mut total = 0.0;
+        for t in &self.triangles {
+            if t.iter().all(|&i| (i as usize) < nv) {
+                let [a, b, c] = t.map(|i| self.vertices[i as usize]);
+                total += 0.5 * (b - a).cross(&(c - a)).norm();
+            }
+            cumulative.push(total);
+        }
+        if !(total > 0.0 && total.is_finite()) {
+            return (Vec::new(), Vec::new());
+        }
+        let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(seed);
+        let mut points = Vec::with_capacity(n);
+        let mut normals = Vec::with_capacity(n);
+        while points.len() < n {
+            let x = rng.random::<f64>() * total;
+            let t = cumulative.partition_point(|&c| c <= x).min(cumulative.len() - 1);
+            let (u, v): (f64, f64) = (rng.random(), rng.random());
+            let Some(normal) = self.triangle_normal(t) else {
+                continue;
+            };
+            let [a, b, c] = self.triangles[t].map(|i| self.vertices[i as usize]);
+            let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+            points.push(a + (b - a) * u + (c - a) * v);
+            normals.push(normal);
+        }
+        (points, normals)
+    }
+
     /// Per-vertex unit normals: the area-weighted mean of the adjacent triangles' normals (zero
     /// for a vertex no triangle uses).
     pub fn vertex_normals(&self) -> Vec<Vector3<f64>> {

@@ -138,6 +138,24 @@ impl Surface {
     }
 }
 
+/// Indices of the points that are vertices of their convex hull (quickhull), increasing; `None`
+/// when the hull is degenerate (fewer than four points not all in a plane) or fails numerically.
+/// Duplicate points share one hull vertex: the first of them is reported.
+pub fn convex_hull_vertices(points: &[Point3<f64>]) -> Option<Vec<usize>> {
+    let pts: Vec<GVec> = points.iter().map(g).collect();
+    let (hull, _) = parry3d_f64::transformation::try_convex_hull(&pts).ok()?;
+    // The hull's vertices are exact copies of input points: find them back by their bits.
+    let key = |v: &GVec| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+    let mut first = std::collections::HashMap::with_capacity(points.len());
+    for (i, p) in pts.iter().enumerate() {
+        first.entry(key(p)).or_insert(i);
+    }
+    let mut out: Vec<usize> = hull.iter().filter_map(|v| first.get(&key(v)).copied()).collect();
+    out.sort_unstable();
+    out.dedup();
+    Some(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -207,6 +225,16 @@ mod tests {
     fn m_point(m: &TriangleMesh, t: usize, w: [f64; 3]) -> Point3<f64> {
         let [a, b, c] = m.triangles[t].map(|i| m.vertices[i as usize].coords);
         Point3::from(a * w[0] + b * w[1] + c * w[2])
+    }
+
+    #[test]
+    fn hull_vertices_of_a_cube_with_inner_points() {
+        let mut pts = cube().vertices;
+        pts.push(Point3::new(0.5, 0.5, 0.5));
+        pts.push(Point3::new(0.2, 0.7, 0.4));
+        pts.push(Point3::new(1.0, 1.0, 1.0)); // duplicate of vertex 7
+        assert_eq!(convex_hull_vertices(&pts).unwrap(), (0..8).collect::<Vec<_>>());
+        assert!(convex_hull_vertices(&pts[..2]).is_none());
     }
 
     #[test]

@@ -301,7 +301,9 @@ fn same_seed_same_bytes_other_seed_other_bytes() {
             "truth.json"
         ]
     );
-    assert_eq!(a, b);
+    for (fa, fb) in a.iter().zip(&b) {
+        assert!(fa == fb, "{} differs between two runs with the same seed", fa.0);
+    }
     for name in ["scan.ply", "scene_mesh.ply", "truth.json", "config.toml"] {
         let get = |v: &[(String, Vec<u8>)]| v.iter().find(|f| f.0 == name).unwrap().1.clone();
         assert_ne!(get(&a), get(&c), "{name} does not depend on the seed");
@@ -368,7 +370,7 @@ fn a_reference_file_replaces_the_generated_bottle() {
     let mut from_file = generated.clone();
     from_file.object.reference = Some(path.clone());
     let b = synthesize(&from_file).unwrap();
-    assert_eq!(a.scan, b.scan);
+    assert!(a.scan == b.scan, "the scan through the PLY file differs");
     assert_eq!(a.truth.t_scan_reference, b.truth.t_scan_reference);
     assert_eq!(b.truth.object.as_ref().unwrap().model, path.display().to_string());
     // A missing file is bad input naming the key.
@@ -415,4 +417,29 @@ fn committed_data_is_reproducible() {
         model == std::fs::read(dir.path().join("bottle/reference.ply")).unwrap(),
         "data/models/bottle.ply"
     );
+}
+
+#[test]
+fn impossible_camera_placements_are_bad_input() {
+    // 0.15 m above the bottle's axis is inside its 0.175 m radius body.
+    let mut c = small(1);
+    c.camera.min_depth_m = 0.1;
+    c.camera.distance_m = 0.15;
+    c.camera.tilt_deg = 0.0;
+    let Err(e) = synthesize(&c) else {
+        panic!("a camera inside the bottle must be rejected")
+    };
+    assert_eq!(e.exit_code(), 2, "{e}");
+    assert!(
+        e.to_string().contains("camera.distance_m") && e.to_string().contains("inside"),
+        "{e}"
+    );
+    let mut c = small(1);
+    c.camera.pixel_stride = 1;
+    c.camera.width_px = 20_000;
+    c.camera.height_px = 20_000;
+    let Err(e) = synthesize(&c) else {
+        panic!("20000 x 20000 pixels must be rejected")
+    };
+    assert!(e.to_string().contains("camera.pixel_stride"), "{e}");
 }

@@ -5,13 +5,17 @@
 //! that writes files writes them under `--out DIR`, including `summary.json` and the resolved
 //! `config.toml`.
 
+pub mod arm;
+
 use crate::error::Result;
 use crate::output::OutDir;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 
+pub mod check;
 pub mod info;
+pub mod segment;
 pub mod synth;
 
 /// Command-line arguments.
@@ -36,8 +40,14 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Inspect the arm of a model: fk, ik, id, jacobian, mass-matrix.
+    Arm(arm::ArmArgs),
     /// What a PLY file holds: points, faces, properties, encoding, bounding box.
     Info(info::InfoArgs),
+    /// Seabed and clusters of a scan, as coloured PLYs (seabed red, object green).
+    Segment(segment::SegmentArgs),
+    /// Align a reference model to the scanned object and report the alignment's accuracy.
+    Check(check::CheckArgs),
     /// A synthetic underwater stereo scan with its ground truth.
     Synth(synth::SynthArgs),
 }
@@ -89,7 +99,10 @@ pub fn execute(cli: Cli) -> Result<()> {
         quiet: cli.quiet,
     };
     let report: Report = match &cli.command {
+        Command::Arm(a) => arm::run(a, &ctx)?,
         Command::Info(args) => info::run(args, &ctx)?,
+        Command::Segment(args) => segment::run(args, &ctx)?,
+        Command::Check(args) => check::run(args, &ctx)?,
         Command::Synth(args) => synth::run(args, &ctx)?,
     };
     if let Some(out) = &report.out {

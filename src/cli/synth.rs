@@ -37,7 +37,7 @@ pub struct SynthArgs {
 /// # Errors
 /// [`crate::Error::Input`] for a bad configuration (naming the key) or output folder;
 /// [`crate::Error::Failed`] if a file cannot be written.
-pub fn run(args: &SynthArgs, ctx: &Ctx) -> Result<Report> {
+pub fn run(args: &SynthArgs, _ctx: &Ctx) -> Result<Report> {
     let mut cfg: SynthConfig = config::load(args.config.as_deref())?;
     if let Some(scene) = args.scene {
         cfg.scene = scene;
@@ -48,10 +48,8 @@ pub fn run(args: &SynthArgs, ctx: &Ctx) -> Result<Report> {
     cfg.validate()?;
     let inputs: Vec<&std::path::Path> = args.config.iter().map(|p| p.as_path()).collect();
     let out = OutDir::create(&args.out, &inputs)?;
-    let bar = ctx.progress(1, "synth");
     let started = std::time::Instant::now();
     let s = synthesize(&cfg)?;
-    bar.finish_and_clear();
     let elapsed = started.elapsed().as_secs_f64();
 
     out.write_with("scan.ply", |w| ply::write_cloud(w, &s.scan))?;
@@ -66,8 +64,15 @@ pub fn run(args: &SynthArgs, ctx: &Ctx) -> Result<Report> {
     let mut text = String::new();
     let _ = writeln!(
         text,
-        "synth: {:?} scene, seed {}: {} points from {} pixels in {:.2} s",
-        s.truth.scene, s.truth.seed, c.points, c.pixels, elapsed
+        "synth: {} scene, seed {}: {} points from {} pixels in {:.2} s",
+        match s.truth.scene {
+            SceneKind::Bottle => "bottle",
+            SceneKind::Sediment => "sediment",
+        },
+        s.truth.seed,
+        c.points,
+        c.pixels,
+        elapsed
     );
     let _ = writeln!(
         text,

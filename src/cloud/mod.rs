@@ -4,6 +4,8 @@
 //! frame `S` unless said otherwise).
 
 pub mod filter;
+pub mod normals;
+pub mod pca;
 
 use nalgebra::{Point3, Vector3};
 

@@ -63,8 +63,8 @@ pub struct CameraConfig {
     /// Keep one pixel in `pixel_stride` along rows and columns (depth-map decimation; 3 keeps the
     /// 1280 × 720 scan near 100 000 points, about 2.8 MB of PLY).
     pub pixel_stride: u32,
-    /// Distance from the camera to the target along the optical axis, metres: to the object's
-    /// model origin (bottle) or to the mean seabed plane (sediment).
+    /// Distance from the camera to the target along the optical axis, metres: to the centre of
+    /// the object model's bounding box (bottle) or to the mean seabed plane (sediment).
     pub distance_m: f64,
     /// Angle of the optical axis from the vertical, degrees (0 looks straight down; positive looks
     /// ahead, towards north in the world frame).
@@ -338,6 +338,13 @@ impl SynthConfig {
             (1..=64).contains(&c.pixel_stride),
             "camera.pixel_stride",
             format!("must be 1 ..= 64 (got {})", c.pixel_stride),
+        )?;
+        let kept = (c.width_px.div_ceil(c.pixel_stride.max(1)) as u64)
+            * (c.height_px.div_ceil(c.pixel_stride.max(1)) as u64);
+        check(
+            kept <= 20_000_000,
+            "camera.pixel_stride",
+            format!("{kept} kept pixels is more than 20 million; raise the stride or lower the resolution"),
         )?;
         positive(c.distance_m, "camera.distance_m")?;
         check(

@@ -175,7 +175,8 @@ pub struct Truth {
     /// Mean seabed plane `[a, b, c, d]`, scan frame: unit normal towards the camera,
     /// `a x + b y + c z + d = 0`, `d > 0`.
     pub seabed_plane: [f64; 4],
-    /// The point the camera looks at (object model origin, or the mean seabed plane), scan frame.
+    /// The point the camera looks at (the centre of the object model's bounding box, or on the
+    /// mean seabed plane), scan frame.
     pub target_in_scan: Point3<f64>,
     /// The camera.
     pub camera: CameraTruth,

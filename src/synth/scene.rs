@@ -6,8 +6,8 @@
 //! vertically below the camera, so the camera sits at `(0, 0, −altitude)`. The camera looks
 //! north and down: its optical axis `z_S = (sin τ, 0, cos τ)` (tilt `τ` from the vertical),
 //! `x_S` = east (image right), `y_S = z_S × x_S` (image down; south when looking straight down).
-//! The target (the object's model origin, or the seabed point for the sediment scene) lies on the
-//! optical axis at `camera.distance_m`.
+//! The target (the centre of the object model's bounding box, or the seabed point for the
+//! sediment scene) lies on the optical axis at `camera.distance_m`.
 //!
 //! Placement. The object's model `+x` axis lies in the mean seabed plane at heading
 //! `object.yaw_deg`, its model `+z` along the plane's up normal (then rolled by
@@ -25,6 +25,7 @@ use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
 use crate::spatial::KdIndex;
+use crate::surface::Surface;
 use nalgebra::{Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::Serialize;
 
@@ -90,7 +91,7 @@ pub struct PlacedObject {
 /// A stone as placed.
 #[derive(Debug, Clone, Copy)]
 pub struct PlacedStone {
-    /// Centre of its mesh, world frame, metres.
+    /// Centre of the stone's (roughened) ellipsoid, world frame, metres.
     pub centre: Point3<f64>,
     /// Longest diameter, metres.
     pub size_m: f64,
@@ -291,21 +292,28 @@ pub fn compose(cfg: &SynthConfig) -> Result<Composed> {
     let ocfg = &cfg.object;
 
     // The object in its model frame and its orientation; the target height follows from burial.
-    let (object_rot, reference, target_height) = match cfg.scene {
-        SceneKind::Sediment => (UnitQuaternion::identity(), None, 0.0),
+    // The camera aims at the centre of the model's bounding box (so the whole object fits the
+    // view at any heading), `centre` in the model frame.
+    let (object_rot, reference, centre, target_height) = match cfg.scene {
+        SceneKind::Sediment => (UnitQuaternion::identity(), None, Vector3::zeros(), 0.0),
         SceneKind::Bottle => {
             let mesh = reference_mesh(cfg)?;
             let rot = object_rotation(cfg, &up);
+            let (lo, hi) = crate::cloud::bbox(&mesh.vertices).unwrap_or_default();
+            let centre = 0.5 * (lo.coords + hi.coords);
             let lowest = mesh
                 .vertices
                 .iter()
-                .map(|v| (rot * v.coords).dot(&up))
+                .map(|v| (rot * (v.coords - centre)).dot(&up))
                 .fold(f64::MAX, f64::min);
-            (rot, Some(mesh), -lowest - ocfg.burial_m)
+            (rot, Some(mesh), centre, -lowest - ocfg.burial_m)
         }
     };
     let (t_world_scan, target) = camera_pose(cfg, &up, target_height)?;
-    let t_world_reference = Pose::from_parts(Translation3::from(target.coords), object_rot);
+    let t_world_reference = Pose::from_parts(
+        Translation3::from(target.coords - object_rot * centre),
+        object_rot,
+    );
 
     // Fouling, in the model frame.
     let placed = reference.map(|reference| {
@@ -324,6 +332,15 @@ pub fn compose(cfg: &SynthConfig) -> Result<Composed> {
         .as_ref()
         .map(|o| fouling::deform(&o.reference, &o.features));
     let object_world = deformed.as_ref().map(|(m, _)| m.transformed(&t_world_reference));
+    let camera = Point3::from(t_world_scan.translation.vector);
+    if let Some(obj) = &object_world
+        && Surface::new(obj)?.contains(&camera)
+    {
+        return Err(Error::input(
+            "config camera.distance_m",
+            "the camera would be inside the object; increase the distance or reduce the tilt",
+        ));
+    }
 
     // Footprint of the object (its vertices at or below the plane, projected into the plane).
     let in_plane = |p: &Point3<f64>| p - up * up.dot(&p.coords);
@@ -339,17 +356,25 @@ pub fn compose(cfg: &SynthConfig) -> Result<Composed> {
             .nearest(&in_plane(p))
             .map_or(f64::INFINITY, |n| n.distance)
     };
+    // The object's whole outline projected into the plane (stones stay clear of it, including
+    // under the raised neck).
+    let outline: Vec<Point3<f64>> = object_world
+        .iter()
+        .flat_map(|m| m.vertices.iter())
+        .map(in_plane)
+        .collect();
+    let outline_index = KdIndex::new(&outline)?;
     // The silt is cut off beyond SILT_CUTOFF widths; points farther than that from every
     // footprint point (checked first against the footprint's bounding circle) get none.
-    let centre = in_plane(&target);
+    let footprint_centre = in_plane(&target);
     let footprint_radius = footprint_pts
         .iter()
-        .map(|p| (p - centre).norm())
+        .map(|p| (p - footprint_centre).norm())
         .fold(0.0, f64::max);
     let silt_reach = SILT_CUTOFF * ocfg.silt_width_m;
     let silt = |x: f64, y: f64| {
         let p = in_plane(&Point3::new(x, y, seabed.plane_depth(x, y)));
-        if footprint_pts.is_empty() || (p - centre).norm() > footprint_radius + silt_reach {
+        if footprint_pts.is_empty() || (p - footprint_centre).norm() > footprint_radius + silt_reach {
             return 0.0;
         }
         let g = footprint_distance(&p);
@@ -375,6 +400,12 @@ pub fn compose(cfg: &SynthConfig) -> Result<Composed> {
     let t_scan_world = t_world_scan.inverse();
     let seabed_mesh = crop_to_view(&seabed.mesh(lo, hi, cfg.seabed.cell_m, silt), cfg, &t_scan_world);
     let seabed_depth = |x: f64, y: f64| seabed.plane_depth(x, y) - seabed.relief(x, y) - silt(x, y);
+    if seabed_depth(camera.x, camera.y) - camera.z < 0.05 {
+        return Err(Error::input(
+            "config camera.distance_m",
+            "the camera would be less than 5 cm above the seabed; increase the distance or reduce the tilt",
+        ));
+    }
 
     // Colour texture: a fine 3-D field modulating every albedo.
     let tint = WaveField::new(
@@ -394,7 +425,7 @@ pub fn compose(cfg: &SynthConfig) -> Result<Composed> {
         .vertices
         .iter()
         .map(|p| {
-            let trough = 0.5 * (1.25 - seabed.ripple_shape(p.x, p.y)) / 1.0;
+            let trough = 0.5 * (1.25 - seabed.ripple_shape(p.x, p.y)); // 0 at crests, 1 in troughs
             let s = silt(p.x, p.y) / ocfg.silt_height_m.max(1e-9);
             let base = mix(SAND, SILT, s.clamp(0.0, 1.0));
             scale(base, (1.0 + 0.12 * tint.at(p)) * (1.0 - 0.08 * trough))
@@ -439,7 +470,9 @@ pub fn compose(cfg: &SynthConfig) -> Result<Composed> {
             let x = uniform(&mut rng, [lo[0] + inner, hi[0] - inner]);
             let y = uniform(&mut rng, [lo[1] + inner, hi[1] - inner]);
             let ground = Point3::new(x, y, seabed_depth(x, y));
-            let clear_object = footprint_distance(&ground) > cfg.stones.clearance_m + 0.5 * size;
+            let clear_object = outline_index
+                .nearest(&in_plane(&ground))
+                .is_none_or(|n| n.distance > cfg.stones.clearance_m + 0.5 * size);
             let clear_stones = stones_placed.iter().all(|s: &PlacedStone| {
                 (in_plane(&s.centre) - in_plane(&ground)).norm() > 0.5 * (s.size_m + size)
             });
@@ -505,6 +538,11 @@ mod tests {
         assert!((rot * Vector3::x() - Vector3::y()).norm() < 1e-12);
         let z = rot * Vector3::z();
         assert!((z.z - 30f64.to_radians().cos()).abs() < 1e-12 && z.x > 0.0);
+        // The camera aims at the centre of the bottle's bounding box, 0.1325 m from the origin
+        // towards the cap.
+        let o = c.object.as_ref().unwrap();
+        let aim = o.t_world_reference.inverse() * c.target_world;
+        assert!((aim - Point3::new(0.1325, 0.0, 0.0)).norm() < 1e-9, "{aim:?}");
         // The object's lowest point is burial_m below the mean plane.
         let o = c.object.as_ref().unwrap();
         let lowest = o
@@ -542,19 +580,16 @@ mod tests {
         .resolved();
         let c = compose(&cfg).unwrap();
         let o = c.object.unwrap();
-        let end = |x: f64| o.t_world_reference * Point3::new(x, 0.0, 0.0);
-        let (a, b) = (end(-0.23), end(0.49));
-        // The footprint of a bottle buried 4 cm reaches sqrt(R² − (R − b)²) = 0.11 m from its axis.
-        let half_width = (0.175f64.powi(2) - 0.135f64.powi(2)).sqrt();
+        let up = c.up_world;
+        let flat = |p: Point3<f64>| p - up * up.dot(&p.coords);
         for s in &c.stones {
-            let t = ((s.centre - a).dot(&(b - a)) / (b - a).norm_squared()).clamp(0.0, 1.0);
-            let g = s.centre - (a + (b - a) * t);
-            let g = g - c.up_world * c.up_world.dot(&g);
-            assert!(
-                g.norm() > half_width + cfg.stones.clearance_m + 0.5 * s.size_m - 0.01,
-                "{}",
-                g.norm()
-            );
+            let gap = o
+                .reference
+                .vertices
+                .iter()
+                .map(|v| (flat(o.t_world_reference * v) - flat(s.centre)).norm())
+                .fold(f64::MAX, f64::min);
+            assert!(gap > cfg.stones.clearance_m + 0.5 * s.size_m - 1e-9, "{gap}");
         }
         assert!(!c.stones.is_empty());
     }

@@ -1,0 +1,323 @@
+//! How good is an alignment? The seed's method [59] without ground truth, and the usual pose
+//! metrics with it.
+//!
+//! **[59]** (Konoplin & Pyatavin 2020, cited by the seed as its accuracy check): a family of test
+//! trajectories is projected onto both triangulated surfaces — the scanned object and the aligned
+//! reference — and the distances between corresponding points are summarised by their RMS and
+//! maximum. Here the trajectories are `lines` parallel straight lines across the object (along its
+//! minor image axis, spaced along its major one), in the plane perpendicular to the camera's view
+//! direction (camera → object centroid), each sampled at `samples_per_line` points; each sample is
+//! projected along the view direction, so corresponding points lie on one ray and their distance
+//! is the difference of the two hit distances. `coverage` is the fraction of the samples that hit
+//! the scanned surface which also hit the reference.
+//!
+//! **With ground truth**: rotation and translation error of `t_scan_reference`, and ADD-S
+//! (Hinterstoisser et al. 2012; Xiang et al. 2018, PoseCNN): the mean over the model's points,
+//! placed by the true pose, of the distance to the nearest model point placed by the estimate —
+//! symmetric objects are not penalised for a turn they do not show. Units: metres, degrees.
+
+use crate::cloud::pca::principal_axes;
+use crate::error::{Error, Result};
+use crate::frames::{Pose, pose_error};
+use crate::spatial::KdIndex;
+use crate::surface::Surface;
+use nalgebra::{Point3, Vector3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Configuration of the [59] accuracy estimate.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AccuracyConfig {
+    /// Parallel test lines across the object.
+    pub lines: usize,
+    /// Samples along each line.
+    pub samples_per_line: usize,
+    /// The lines cover the object's extent in the image plane shrunk by this fraction at each
+    /// end (0: edge to edge).
+    pub inset: f64,
+}
+
+impl Default for AccuracyConfig {
+    fn default() -> Self {
+        AccuracyConfig {
+            lines: 21,
+            samples_per_line: 101,
+            inset: 0.02,
+        }
+    }
+}
+
+/// One test ray: where a sample of a test line starts and the direction it is projected along.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TestRay {
+    /// Start (in front of the object, on the camera's side), metres.
+    pub origin: Point3<f64>,
+    /// Unit projection direction (the view direction).
+    pub direction: Vector3<f64>,
+    /// Index of the line this sample belongs to.
+    pub line: usize,
+}
+
+/// The test trajectories for the object `points` (scan frame, camera at `viewpoint`).
+///
+/// # Errors
+/// [`Error::Input`] for zero lines or samples; [`Error::Failed`] (stage `accuracy`) for an empty
+/// object.
+pub fn test_rays(
+    points: &[Point3<f64>],
+    viewpoint: &Point3<f64>,
+    cfg: &AccuracyConfig,
+) -> Result<Vec<TestRay>> {
+    if cfg.lines == 0 || cfg.samples_per_line == 0 || !(0.0..0.5).contains(&cfg.inset) {
+        return Err(Error::input(
+            "accuracy",
+            "lines and samples_per_line must be ≥ 1 and inset in [0, 0.5)",
+        ));
+    }
+    let shape = principal_axes(points, 0.0).ok_or_else(|| Error::failed("accuracy", "no object points"))?;
+    let to_object = shape.centroid - viewpoint;
+    let range = to_object.norm();
+    let d = to_object
+        .try_normalize(1e-12)
+        .ok_or_else(|| Error::failed("accuracy", "the object's centroid is at the camera"))?;
+    // Major axis of the object, projected into the image plane.
+    let major: Vector3<f64> = shape.axes.column(0).into_owned();
+    let e1 = (major - d * major.dot(&d))
+        .try_normalize(1e-9)
+        .unwrap_or_else(|| {
+            d.cross(&if d.x.abs() < 0.9 {
+                Vector3::x()
+            } else {
+                Vector3::y()
+            })
+            .normalize()
+        });
+    let e2 = d.cross(&e1);
+    let (mut lo1, mut hi1, mut lo2, mut hi2) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for p in points {
+        let v = p - shape.centroid;
+        let (a, b) = (v.dot(&e1), v.dot(&e2));
+        (lo1, hi1, lo2, hi2) = (lo1.min(a), hi1.max(a), lo2.min(b), hi2.max(b));
+    }
+    let inset = |lo: f64, hi: f64| (lo + cfg.inset * (hi - lo), hi - cfg.inset * (hi - lo));
+    let ((lo1, hi1), (lo2, hi2)) = (inset(lo1, hi1), inset(lo2, hi2));
+    let at = |lo: f64, hi: f64, k: usize, n: usize| {
+        if n == 1 {
+            0.5 * (lo + hi)
+        } else {
+            lo + (hi - lo) * k as f64 / (n - 1) as f64
+        }
+    };
+    let back = 0.5 * range;
+    let mut rays = Vec::with_capacity(cfg.lines * cfg.samples_per_line);
+    for line in 0..cfg.lines {
+        let a = at(lo1, hi1, line, cfg.lines);
+        for k in 0..cfg.samples_per_line {
+            let b = at(lo2, hi2, k, cfg.samples_per_line);
+            rays.push(TestRay {
+                origin: shape.centroid + e1 * a + e2 * b - d * back,
+                direction: d,
+                line,
+            });
+        }
+    }
+    Ok(rays)
+}
+
+/// The distance along each ray to its first hit on `surface` (within `max_distance` metres), or
+/// `None` where it misses.
+pub fn cast_rays(surface: &Surface, rays: &[TestRay], max_distance: f64) -> Vec<Option<f64>> {
+    rays.par_iter()
+        .map(|r| {
+            surface
+                .cast_ray(&r.origin, &r.direction, max_distance)
+                .map(|h| h.distance)
+        })
+        .collect()
+}
+
+/// Summary of the distances between corresponding points of two projected trajectory families.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Deviation {
+    /// RMS distance between corresponding points, metres.
+    pub rms_m: f64,
+    /// Largest distance, metres.
+    pub max_m: f64,
+    /// Mean signed distance (second surface minus first, along the view direction), metres.
+    pub mean_signed_m: f64,
+    /// Samples on both surfaces.
+    pub samples: usize,
+    /// Samples that hit the first surface.
+    pub first_hits: usize,
+    /// `samples / first_hits` (0 when nothing hit the first surface).
+    pub coverage: f64,
+}
+
+/// Compares hit distances `first` and `second` (same rays), over the rays where `mask` (if given)
+/// is true.
+pub fn deviation(first: &[Option<f64>], second: &[Option<f64>], mask: Option<&[bool]>) -> Deviation {
+    let (mut n, mut hits, mut s2, mut s1, mut max) = (0usize, 0usize, 0.0, 0.0, 0.0f64);
+    for (i, (a, b)) in first.iter().zip(second).enumerate() {
+        if mask.is_some_and(|m| !m.get(i).copied().unwrap_or(false)) {
+            continue;
+        }
+        let Some(a) = a else { continue };
+        hits += 1;
+        if let Some(b) = b {
+            let d = b - a;
+            n += 1;
+            s1 += d;
+            s2 += d * d;
+            max = max.max(d.abs());
+        }
+    }
+    let k = n.max(1) as f64;
+    Deviation {
+        rms_m: (s2 / k).sqrt(),
+        max_m: max,
+        mean_signed_m: s1 / k,
+        samples: n,
+        first_hits: hits,
+        coverage: if hits > 0 { n as f64 / hits as f64 } else { 0.0 },
+    }
+}
+
+/// The seed's [59] estimate: test trajectories over the scanned object `object` (seen from
+/// `camera`) projected onto the scanned surface and the aligned reference surface.
+///
+/// # Errors
+/// As [`test_rays`].
+pub fn trajectory_accuracy(
+    object: &[Point3<f64>],
+    camera: &Point3<f64>,
+    scan_surface: &Surface,
+    reference_surface: &Surface,
+    cfg: &AccuracyConfig,
+) -> Result<Deviation> {
+    let rays = test_rays(object, camera, cfg)?;
+    let reach = 2.0 * object.iter().map(|p| (p - camera).norm()).fold(0.0, f64::max);
+    Ok(deviation(
+        &cast_rays(scan_surface, &rays, reach),
+        &cast_rays(reference_surface, &rays, reach),
+        None,
+    ))
+}
+
+/// Pose errors against ground truth.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TruthErrors {
+    /// Rotation angle between the estimate and the truth, degrees.
+    pub rotation_error_deg: f64,
+    /// Distance between their translations, metres.
+    pub translation_error_m: f64,
+    /// ADD-S: mean closest-point distance between the model under the true and the estimated
+    /// pose, metres.
+    pub add_s_m: f64,
+    /// ADD: mean distance between corresponding model points under the two poses, metres.
+    pub add_m: f64,
+}
+
+/// Rotation/translation error, ADD-S and ADD of `estimate` against `truth` for the model points
+/// `model` (model frame).
+///
+/// # Errors
+/// [`Error::Failed`] (stage `accuracy`) for an empty model.
+pub fn truth_errors(model: &[Point3<f64>], estimate: &Pose, truth: &Pose) -> Result<TruthErrors> {
+    if model.is_empty() {
+        return Err(Error::failed("accuracy", "no model points for ADD-S"));
+    }
+    let est: Vec<Point3<f64>> = model.iter().map(|p| estimate * p).collect();
+    let index = KdIndex::new(&est)?;
+    let (add_s, add) = model
+        .par_iter()
+        .map(|p| {
+            let t = truth * p;
+            let nearest = index.nearest(&t).map_or(0.0, |n| n.distance);
+            (nearest, (t - estimate * p).norm())
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+    let (rotation_error_deg, translation_error_m) = pose_error(estimate, truth);
+    Ok(TruthErrors {
+        rotation_error_deg,
+        translation_error_m,
+        add_s_m: add_s / model.len() as f64,
+        add_m: add / model.len() as f64,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::TriangleMesh;
+    use nalgebra::{Isometry3, Translation3};
+
+    /// A square plate of side 0.4 m, 1 m in front of the camera, facing it.
+    fn plate(z: f64) -> TriangleMesh {
+        TriangleMesh {
+            vertices: vec![
+                Point3::new(-0.2, -0.2, z),
+                Point3::new(0.2, -0.2, z),
+                Point3::new(0.2, 0.2, z),
+                Point3::new(-0.2, 0.2, z),
+            ],
+            triangles: vec![[0, 2, 1], [0, 3, 2]],
+        }
+    }
+
+    #[test]
+    fn offset_plates_give_their_offset() {
+        let object: Vec<Point3<f64>> = (0..400)
+            .map(|i| Point3::new(-0.1 + 0.0005 * i as f64, 0.05 * ((i % 7) as f64 - 3.0) / 3.0, 1.0))
+            .collect();
+        let scan = Surface::new(&plate(1.0)).unwrap();
+        let reference = Surface::new(&plate(1.003)).unwrap();
+        let d = trajectory_accuracy(
+            &object,
+            &Point3::origin(),
+            &scan,
+            &reference,
+            &AccuracyConfig::default(),
+        )
+        .unwrap();
+        assert_eq!(d.samples, 21 * 101);
+        assert!((d.coverage - 1.0).abs() < 1e-12);
+        // Rays are parallel to the view direction, which is nearly +z: distances ≈ 3 mm / cos.
+        assert!((d.rms_m - 0.003).abs() < 1e-4 && d.max_m < 0.0031, "{d:?}");
+        assert!(d.mean_signed_m > 0.0);
+        // A reference shifted sideways by more than the object leaves it uncovered.
+        let away = Surface::new(&plate(1.0).transformed(&Isometry3::translation(0.5, 0.0, 0.0))).unwrap();
+        let d = trajectory_accuracy(
+            &object,
+            &Point3::origin(),
+            &scan,
+            &away,
+            &AccuracyConfig::default(),
+        )
+        .unwrap();
+        assert!(d.coverage < 0.5, "{d:?}");
+    }
+
+    #[test]
+    fn add_s_ignores_symmetry_add_does_not() {
+        // A ring of points: turning it about its axis changes nothing for ADD-S.
+        let model: Vec<Point3<f64>> = (0..3600)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 3600.0;
+                Point3::new(0.1 * a.cos(), 0.1 * a.sin(), 0.0)
+            })
+            .collect();
+        let truth = Isometry3::translation(0.0, 0.0, 1.0);
+        let turned = truth * Isometry3::rotation(Vector3::z() * 0.5);
+        let e = truth_errors(&model, &turned, &truth).unwrap();
+        assert!(e.add_s_m < 1e-4, "{e:?}");
+        assert!(e.add_m > 0.04);
+        assert!((e.rotation_error_deg - 0.5f64.to_degrees()).abs() < 1e-9);
+        let shifted = Translation3::new(0.002, 0.0, 0.0) * truth;
+        let e = truth_errors(&model, &shifted, &truth).unwrap();
+        assert!((e.translation_error_m - 0.002).abs() < 1e-12);
+        assert!(e.add_s_m > 0.001 && e.add_s_m < 0.002);
+    }
+}

@@ -1,0 +1,350 @@
+//! Arm dynamics in spatial-vector form (Featherstone, *RBDA* 2008, ch. 5–6), with the water.
+//!
+//! - [`Arm::inverse_dynamics`]: the recursive Newton–Euler algorithm (RNEA). Forward pass for
+//!   `i = 1..6`: `V_i = X_i V_{i−1} + S_i q̇_i`, `A_i = X_i A_{i−1} + S_i q̈_i + V_i × S_i q̇_i`;
+//!   each link's wrench from [`crate::body::Body::wrench`] (rigid inertia, added mass, drag on
+//!   the velocity relative to the current, gravity, buoyancy); backward pass
+//!   `F_{i−1} += X_iᵀ F_i`, `τ_i = S_iᵀ F_i`. The base may move (`V_0, A_0` of the vehicle), and
+//!   the wrench the arm exerts on its base comes out (`−X_1ᵀ F_1`).
+//! - [`Arm::mass_matrix`]: the composite-rigid-body algorithm (CRBA) with each link's
+//!   `M_RB + M_A`; the rotor inertias `G² Jm` are added on the diagonal.
+//! - [`Arm::forward_dynamics`]: `H q̈ = τ − c(q, q̇)` solved by Cholesky.
+//!
+//! The joint axis is constant in the link's own frame (see [`super::Link::axis`]), so the
+//! velocity-product term is `V_i × S_i q̇_i`. Drive model on the link side (Robotics Toolbox):
+//! `τ = τ_rigid + G² Jm q̈ + |G|(|G| B q̇ + Tc_sel)`. Units: SI, frames: link frames, base 0.
+
+use super::{Arm, JointVector};
+use crate::model::N_JOINTS;
+use crate::spatial_algebra::{Force, Inertia, Motion, Xform};
+use nalgebra::{Cholesky, Matrix3, Matrix6, UnitQuaternion, Vector3, Vector6};
+
+/// Motion of the arm's base frame 0 and of the water around it, in base-frame coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct BaseMotion {
+    /// Spatial velocity of frame 0 (`[v; ω]` at its origin), m/s and rad/s.
+    pub velocity: Motion,
+    /// Spatial acceleration of frame 0 (the time derivative of `velocity`'s components), m/s²
+    /// and rad/s².
+    pub acceleration: Motion,
+    /// Gravity vector, m/s².
+    pub gravity: Vector3<f64>,
+    /// Water velocity, m/s.
+    pub current: Vector3<f64>,
+}
+
+impl BaseMotion {
+    /// A base at rest in still water with gravity `gravity` (m/s², base frame).
+    pub fn fixed(gravity: Vector3<f64>) -> Self {
+        BaseMotion {
+            gravity,
+            ..Default::default()
+        }
+    }
+
+    /// The base of `arm` mounted on a vehicle with attitude `r_world_body`, velocity `nu` and
+    /// acceleration `nu_dot` (`[v; ω]` at `C`'s origin, `C` axes), in a world with gravity `g`
+    /// (m/s², along +z of NED) and water velocity `current_world` (m/s, NED).
+    pub fn on_vehicle(
+        arm: &Arm,
+        r_world_body: &UnitQuaternion<f64>,
+        nu: &Vector6<f64>,
+        nu_dot: &Vector6<f64>,
+        g: f64,
+        current_world: &Vector3<f64>,
+    ) -> Self {
+        let to_base = |w: Vector3<f64>| arm.mount.rot * (r_world_body.inverse() * w);
+        BaseMotion {
+            velocity: arm.mount.motion(&Motion::from_vector6(nu)),
+            acceleration: arm.mount.motion(&Motion::from_vector6(nu_dot)),
+            gravity: to_base(Vector3::new(0.0, 0.0, g)),
+            current: to_base(*current_world),
+        }
+    }
+}
+
+/// The result of the inverse dynamics.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InverseDynamics {
+    /// Drive torques on the link side including rotor inertia and friction, N·m.
+    pub tau: JointVector,
+    /// Torques of the links' dynamics alone (bodies and water; no drives), N·m.
+    pub tau_rigid: JointVector,
+    /// The wrench the arm exerts on its base (the vehicle), base frame, about the base origin.
+    pub wrench_on_base: Force,
+}
+
+/// The link transforms of a configuration: `x[i]` maps frame `i` (0-based: base = frame 0 for
+/// `x[0]`) into frame `i + 1`.
+#[derive(Debug, Clone, Copy)]
+pub struct LinkTransforms {
+    /// `ⁱ⁺¹X_i`.
+    pub x: [Xform; N_JOINTS],
+}
+
+/// Velocities and accelerations of the links from a forward pass (link frames).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LinkMotion {
+    pub v: [Motion; N_JOINTS],
+    pub a: [Motion; N_JOINTS],
+}
+
+impl Arm {
+    /// The link transforms at `q`.
+    #[inline]
+    pub fn transforms(&self, q: &JointVector) -> LinkTransforms {
+        LinkTransforms {
+            x: std::array::from_fn(|i| self.links[i].xform(q[i])),
+        }
+    }
+
+    /// Inverse dynamics: the torques that give `q̈` at `(q, q̇)` with the base moving as `base`
+    /// and the environment pushing on the tool with `f_env_on_tool` (base-frame axes, moment
+    /// about the tool point; `None` for free motion). Coulomb friction by the exact sign rule.
+    pub fn inverse_dynamics(
+        &self,
+        q: &JointVector,
+        qd: &JointVector,
+        qdd: &JointVector,
+        base: &BaseMotion,
+        f_env_on_tool: Option<&Force>,
+    ) -> InverseDynamics {
+        let xs = self.transforms(q);
+        let f6 = match f_env_on_tool {
+            None => Force::ZERO,
+            Some(f) => {
+                let r60 = xs.x.iter().fold(Matrix3::identity(), |acc, x| x.rot * acc);
+                self.tool_wrench_in_flange(&(r60 * f.lin), &(r60 * f.ang))
+            }
+        };
+        let mut tau_rigid = JointVector::zeros();
+        let f1 = self.rnea(&xs, qd, qdd, base, &f6, &mut tau_rigid, None);
+        let tau = tau_rigid + self.armature().component_mul(qdd) + self.friction(qd, None);
+        InverseDynamics {
+            tau,
+            tau_rigid,
+            wrench_on_base: -xs.x[0].force_inv(&f1),
+        }
+    }
+
+    /// A wrench on the tool (frame-6 axes, moment about the tool point) as a wrench about the
+    /// origin of frame 6.
+    #[inline]
+    pub(crate) fn tool_wrench_in_flange(&self, f: &Vector3<f64>, n: &Vector3<f64>) -> Force {
+        Force::new(*f, n + self.t_flange_tool.translation.vector.cross(f))
+    }
+
+    /// The RNEA core: joint torques of the links' dynamics into `tau`, returns `F_1` (the wrench
+    /// transmitted from the base to link 1, link-1 frame). `f6` is the environment's wrench on
+    /// link 6 (frame 6, about its origin). With `motion` the forward pass's link motions are kept.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub(crate) fn rnea(
+        &self,
+        xs: &LinkTransforms,
+        qd: &JointVector,
+        qdd: &JointVector,
+        base: &BaseMotion,
+        f6: &Force,
+        tau: &mut JointVector,
+        mut motion: Option<&mut LinkMotion>,
+    ) -> Force {
+        let mut forces = [Force::ZERO; N_JOINTS];
+        let (mut v, mut a) = (base.velocity, base.acceleration);
+        let (mut g, mut c) = (base.gravity, base.current);
+        for i in 0..N_JOINTS {
+            let link = &self.links[i];
+            let x = &xs.x[i];
+            let vj = link.axis * qd[i];
+            v = x.motion(&v) + vj;
+            a = x.motion(&a) + link.axis * qdd[i] + v.cross(&vj);
+            g = x.rot * g;
+            c = x.rot * c;
+            forces[i] = link.body.wrench(&v, &a, &g, &c);
+            if let Some(m) = motion.as_deref_mut() {
+                m.v[i] = v;
+                m.a[i] = a;
+            }
+        }
+        forces[N_JOINTS - 1] -= *f6;
+        for i in (0..N_JOINTS).rev() {
+            tau[i] = self.links[i].axis.dot(&forces[i]);
+            if i > 0 {
+                let up = xs.x[i].force_inv(&forces[i]);
+                forces[i - 1] += up;
+            }
+        }
+        forces[0]
+    }
+
+    /// The composite-rigid-body algorithm: the joint-space mass matrix of the links (rigid +
+    /// added mass, no rotor inertia) into `h`. With `FLOATING`, also the coupling with the base:
+    /// `base_cols` column `j` is the wrench (base frame) that a unit `q̈_j` needs at the base, and
+    /// the returned inertia is the composite of all links in the base frame.
+    #[inline]
+    pub(crate) fn crba<const FLOATING: bool>(
+        &self,
+        xs: &LinkTransforms,
+        h: &mut Matrix6<f64>,
+        base_cols: &mut Matrix6<f64>,
+    ) -> Inertia {
+        let mut ic: [Inertia; N_JOINTS] = std::array::from_fn(|i| self.links[i].body.total);
+        for i in (1..N_JOINTS).rev() {
+            let up = xs.x[i].inertia_inv(&ic[i]);
+            ic[i - 1] += up;
+        }
+        for i in 0..N_JOINTS {
+            let mut f = ic[i].mul(&self.links[i].axis);
+            h[(i, i)] = self.links[i].axis.dot(&f);
+            let mut j = i;
+            while j > 0 {
+                f = xs.x[j].force_inv(&f);
+                j -= 1;
+                let hij = self.links[j].axis.dot(&f);
+                h[(i, j)] = hij;
+                h[(j, i)] = hij;
+            }
+            if FLOATING {
+                let fb = xs.x[0].force_inv(&f);
+                base_cols.fixed_view_mut::<6, 1>(0, i).copy_from(&fb.to_vector6());
+            }
+        }
+        if FLOATING {
+            xs.x[0].inertia_inv(&ic[0])
+        } else {
+            Inertia::ZERO
+        }
+    }
+
+    /// Joint-space mass matrix of the links alone (rigid bodies + added mass), kg·m².
+    pub fn mass_matrix_rigid(&self, q: &JointVector) -> Matrix6<f64> {
+        let mut h = Matrix6::zeros();
+        let mut unused = Matrix6::zeros();
+        self.crba::<false>(&self.transforms(q), &mut h, &mut unused);
+        h
+    }
+
+    /// Joint-space mass matrix with the rotor inertias `G² Jm` on the diagonal, kg·m².
+    pub fn mass_matrix(&self, q: &JointVector) -> Matrix6<f64> {
+        let mut h = self.mass_matrix_rigid(q);
+        for i in 0..N_JOINTS {
+            h[(i, i)] += self.links[i].armature;
+        }
+        h
+    }
+
+    /// Forward dynamics on a base moving as `base`: `q̈` for drive torques `tau` (link side) at
+    /// `(q, q̇)`, with rotor inertia and the smoothed friction of the plant. `None` if the mass
+    /// matrix is not positive definite (a model with massless, inertia-free links).
+    pub fn forward_dynamics(
+        &self,
+        q: &JointVector,
+        qd: &JointVector,
+        tau: &JointVector,
+        base: &BaseMotion,
+    ) -> Option<JointVector> {
+        let xs = self.transforms(q);
+        let mut bias = JointVector::zeros();
+        self.rnea(
+            &xs,
+            qd,
+            &JointVector::zeros(),
+            base,
+            &Force::ZERO,
+            &mut bias,
+            None,
+        );
+        let mut h = Matrix6::zeros();
+        let mut unused = Matrix6::zeros();
+        self.crba::<false>(&xs, &mut h, &mut unused);
+        for i in 0..N_JOINTS {
+            h[(i, i)] += self.links[i].armature;
+        }
+        let rhs = tau - bias - self.friction(qd, Some(self.coulomb_smoothing));
+        Cholesky::new(h).map(|c| c.solve(&rhs))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::UvmsModel;
+
+    fn arm() -> Arm {
+        let m = UvmsModel::default();
+        Arm::new(&m.arm, &m.environment).unwrap()
+    }
+
+    #[test]
+    fn forward_dynamics_inverts_inverse_dynamics_underwater() {
+        // With added mass, drag and buoyancy: FD(q, q̇, ID(q, q̇, q̈)) = q̈. Friction differs
+        // (exact vs smoothed) unless q̇ is far from 0 compared with the smoothing: take |q̇| ≥ 0.5.
+        let arm = arm();
+        let q = JointVector::new(0.2, 1.0, -2.0, 0.3, 0.9, -0.4);
+        let qd = JointVector::new(0.5, -0.7, 0.6, -0.9, 0.8, 1.1);
+        let qdd = JointVector::new(1.0, -0.5, 0.8, -1.2, 0.9, 2.0);
+        let base = BaseMotion::fixed(arm.level_gravity(9.81));
+        let id = arm.inverse_dynamics(&q, &qd, &qdd, &base, None);
+        let back = arm.forward_dynamics(&q, &qd, &id.tau, &base).unwrap();
+        let smooth_gap = arm.friction(&qd, None) - arm.friction(&qd, Some(arm.coulomb_smoothing));
+        let corr = arm.mass_matrix(&q).cholesky().unwrap().solve(&smooth_gap);
+        assert!((back - corr - qdd).norm() < 1e-9, "{back} vs {qdd}");
+    }
+
+    #[test]
+    fn mass_matrix_columns_are_rnea_with_unit_accelerations() {
+        // H e_j = RNEA(q, 0, e_j) with no gravity, no current: an independent route to H.
+        let arm = arm();
+        let q = JointVector::new(-0.4, 0.3, -1.0, 1.2, -0.6, 0.2);
+        let h = arm.mass_matrix_rigid(&q);
+        for j in 0..6 {
+            let mut e = JointVector::zeros();
+            e[j] = 1.0;
+            let id = arm.inverse_dynamics(&q, &JointVector::zeros(), &e, &BaseMotion::default(), None);
+            assert!((h.column(j) - id.tau_rigid).norm() < 1e-12, "column {j}");
+        }
+        assert!((h - h.transpose()).norm() < 1e-12);
+    }
+
+    #[test]
+    fn buoyant_arm_weighs_less() {
+        // Links 2..6 displace water: the gravity torque underwater is that of the dry arm with
+        // each link's weight reduced by rho*V*g at its centre of buoyancy.
+        let m = UvmsModel::default();
+        let wet = Arm::new(&m.arm, &m.environment).unwrap();
+        let mut dry_env = m.environment.clone();
+        dry_env.water_density = 0.0;
+        let dry = Arm::new(&m.arm, &dry_env).unwrap();
+        let q = JointVector::new(0.0, 0.5, -1.0, 0.0, 0.3, 0.0);
+        let g = wet.level_gravity(9.81);
+        let z = JointVector::zeros();
+        let t_wet = wet
+            .inverse_dynamics(&q, &z, &z, &BaseMotion::fixed(g), None)
+            .tau_rigid;
+        let t_dry = dry
+            .inverse_dynamics(&q, &z, &z, &BaseMotion::fixed(g), None)
+            .tau_rigid;
+        // Buoyancy alone: a fictitious arm whose link masses are the displaced masses at the
+        // cylinder centres; its gravity torque is the difference.
+        let mut b_model = m.arm.clone();
+        for l in &mut b_model.links {
+            let (mass, com) = match &l.hydro {
+                Some(c) if !c.volume_in_hull => (
+                    1025.0 * std::f64::consts::PI * c.radius * c.radius * c.length,
+                    c.center,
+                ),
+                _ => (0.0, [0.0; 3]),
+            };
+            l.mass = mass;
+            l.center_of_mass = com;
+            l.inertia = [[0.0; 3]; 3];
+            l.hydro = None;
+        }
+        let b_arm = Arm::new(&b_model, &dry_env).unwrap();
+        let t_b = b_arm
+            .inverse_dynamics(&q, &z, &z, &BaseMotion::fixed(g), None)
+            .tau_rigid;
+        assert!((t_dry - t_b - t_wet).norm() < 1e-9, "{t_dry} {t_b} {t_wet}");
+        assert!(t_b.norm() > 1.0);
+    }
+}

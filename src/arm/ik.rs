@@ -1,0 +1,324 @@
+//! Analytic inverse kinematics of the PUMA class: a waist joint, a planar shoulder–elbow pair
+//! with a lateral offset, and a spherical wrist (Paul & Zhang 1986; Craig, *Introduction to
+//! Robotics*, §4.7, here in standard DH). No Jacobian inverse, no iteration.
+//!
+//! The wrist centre `p_w = o_5` is where the three wrist axes meet; it depends on `q1..q3` only:
+//!
+//! ```text
+//! p_w − d1 z0 = a2 (c1 c2, s1 c2, s2) + D (s1, −c1, 0) + a3 (c1 c23, s1 c23, s23) + d4 (−c1 s23, −s1 s23, c23)
+//! ```
+//!
+//! with `D = d2 + d3` the lateral offset. So `q1` solves `s1 x − c1 y = D` (two solutions:
+//! shoulder left/right), `q2, q3` a planar two-link problem (two: elbow up/down), and the wrist
+//! `R_3_6 = Rz(q4) Ry(−q5) Rz(q6)` a ZYZ Euler decomposition (two: wrist flipped or not): eight
+//! solutions. Each is then moved by multiples of 2π into the joint limits, choosing the angle
+//! nearest the current configuration, dropped if no multiple fits, and checked by forward
+//! kinematics. At the wrist singularity (`q5 = 0`) only `q4 + q6` is defined; `q4` is kept at its
+//! current value.
+//!
+//! Requirements on the DH table (checked): `a1 = 0`, `α = (+90°, 0, −90°, +90°, −90°, any)`,
+//! `a4 = a5 = d5 = 0`. `d6`, `a6`, `α6`, the tool and all `θ` offsets are free.
+
+use super::{Arm, JointVector};
+use crate::error::{Error, Result};
+use crate::model::N_JOINTS;
+use nalgebra::{Isometry3, Matrix3, Vector3};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+/// Up to eight IK solutions, sorted nearest to the current configuration first.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IkSolutions {
+    solutions: [JointVector; 8],
+    len: usize,
+    /// How many analytic solutions the pose has before the joint limits are applied (0 when the
+    /// pose is out of reach).
+    pub analytic: usize,
+}
+
+impl IkSolutions {
+    /// The solutions within the joint limits, nearest to the current configuration first.
+    pub fn as_slice(&self) -> &[JointVector] {
+        &self.solutions[..self.len]
+    }
+
+    /// The solution nearest to the current configuration, if any.
+    pub fn nearest(&self) -> Option<&JointVector> {
+        self.as_slice().first()
+    }
+
+    /// Whether no solution was found.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Number of solutions within the limits.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+}
+
+/// Tolerance on the angles of the DH table (rad) and on the lengths that must be zero (m).
+const STRUCTURE_TOL: f64 = 1e-9;
+/// Largest position error (m) and rotation error (rad) of a returned solution.
+const CHECK_TOL: f64 = 1e-7;
+
+impl Arm {
+    /// All inverse-kinematics solutions for the tool pose `t_base_tool` within the joint limits,
+    /// nearest (Euclidean in joint space) to `q_now` first.
+    ///
+    /// # Errors
+    /// [`Error::Input`] if the arm's DH table is not of the PUMA class (see the module docs) or
+    /// the pose is not finite. An unreachable pose is not an error: the result is empty.
+    pub fn ik(&self, t_base_tool: &Isometry3<f64>, q_now: &JointVector) -> Result<IkSolutions> {
+        self.check_puma_structure()?;
+        if !t_base_tool.to_homogeneous().iter().all(|v| v.is_finite()) || !q_now.iter().all(|v| v.is_finite())
+        {
+            return Err(Error::input(
+                "ik",
+                "target pose or current configuration is not finite",
+            ));
+        }
+        let l = &self.links;
+        let dh = |i: usize| l[i].dh;
+        let off = |i: usize| l[i].dh.theta_offset;
+        let t06 = t_base_tool * self.t_flange_tool.inverse();
+        let r06 = t06.rotation.to_rotation_matrix().into_inner();
+        // Wrist centre o5 = o6 − d6 z5 − a6 x6, with z5 = R06 Rx(−α6) e_z.
+        let (s6a, c6a) = dh(5).alpha.sin_cos();
+        let z5 = r06 * Vector3::new(0.0, s6a, c6a);
+        let pw = t06.translation.vector - z5 * dh(5).d - r06.column(0) * dh(5).a;
+        let (px, py, pz) = (pw.x, pw.y, pw.z - dh(0).d);
+        let lateral = dh(1).d + dh(2).d;
+        let (a2, a3, d4) = (dh(1).a, dh(2).a, dh(3).d);
+        let l3 = a3.hypot(d4);
+        let psi = d4.atan2(a3);
+
+        let mut out = IkSolutions {
+            solutions: [JointVector::zeros(); 8],
+            len: 0,
+            analytic: 0,
+        };
+        let rho = px.hypot(py);
+        if rho < lateral.abs() - 1e-12 || rho < 1e-12 {
+            return Ok(out);
+        }
+        let phi = py.atan2(px);
+        let asn = (lateral / rho).clamp(-1.0, 1.0).asin();
+        for theta1 in [phi + asn, phi + PI - asn] {
+            let (s1, c1) = theta1.sin_cos();
+            let r = c1 * px + s1 * py;
+            let cos_beta = (r * r + pz * pz - a2 * a2 - l3 * l3) / (2.0 * a2 * l3);
+            if cos_beta.abs() > 1.0 + 1e-9 {
+                continue;
+            }
+            let beta0 = cos_beta.clamp(-1.0, 1.0).acos();
+            for beta in [beta0, -beta0] {
+                let theta2 = pz.atan2(r) - (l3 * beta.sin()).atan2(a2 + l3 * beta.cos());
+                let theta3 = beta - psi;
+                let q123 = [theta1 - off(0), theta2 - off(1), theta3 - off(2)];
+                let r03 = (0..3).fold(Matrix3::<f64>::identity(), |acc, i| {
+                    acc * l[i].xform(q123[i]).rot.transpose()
+                });
+                // R_3_6 Rx(−α6) = Rz(θ4) Ry(−θ5) Rz(θ6).
+                let rx = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), -dh(5).alpha).into_inner();
+                let m: Matrix3<f64> = r03.transpose() * r06 * rx;
+                let sb = m[(0, 2)].hypot(m[(1, 2)]);
+                let wrists: [(f64, f64, f64); 2] = if sb < 1e-10 {
+                    let theta4 = q_now[3] + off(3);
+                    let (b, sum_or_diff) = if m[(2, 2)] > 0.0 {
+                        (0.0, m[(1, 0)].atan2(m[(0, 0)]))
+                    } else {
+                        (PI, (-m[(1, 0)]).atan2(m[(1, 1)]))
+                    };
+                    let theta6 = if b == 0.0 {
+                        sum_or_diff - theta4
+                    } else {
+                        theta4 - sum_or_diff
+                    };
+                    [(theta4, b, theta6); 2]
+                } else {
+                    [1.0, -1.0].map(|sg: f64| {
+                        let b = (sg * sb).atan2(m[(2, 2)]);
+                        let theta4 = (sg * m[(1, 2)]).atan2(sg * m[(0, 2)]);
+                        let theta6 = (sg * m[(2, 1)]).atan2(-sg * m[(2, 0)]);
+                        (theta4, b, theta6)
+                    })
+                };
+                let distinct = if sb < 1e-10 { 1 } else { 2 };
+                for &(theta4, b, theta6) in &wrists[..distinct] {
+                    out.analytic += 1;
+                    let raw = [
+                        q123[0],
+                        q123[1],
+                        q123[2],
+                        theta4 - off(3),
+                        -b - off(4),
+                        theta6 - off(5),
+                    ];
+                    if let Some(q) = self.fit_limits(&raw, q_now)
+                        && self.pose_matches(&q, t_base_tool)
+                    {
+                        out.solutions[out.len] = q;
+                        out.len += 1;
+                    }
+                }
+            }
+        }
+        let dist = |q: &JointVector| (q - q_now).norm_squared();
+        out.solutions[..out.len].sort_by(|a, b| dist(a).total_cmp(&dist(b)));
+        Ok(out)
+    }
+
+    /// Checks that the DH table is of the PUMA class this IK solves.
+    fn check_puma_structure(&self) -> Result<()> {
+        let want_alpha = [FRAC_PI_2, 0.0, -FRAC_PI_2, FRAC_PI_2, -FRAC_PI_2];
+        let l = &self.links;
+        let ok = want_alpha
+            .iter()
+            .enumerate()
+            .all(|(i, a)| (l[i].dh.alpha - a).abs() < STRUCTURE_TOL)
+            && l[0].dh.a.abs() < STRUCTURE_TOL
+            && l[3].dh.a.abs() < STRUCTURE_TOL
+            && l[4].dh.a.abs() < STRUCTURE_TOL
+            && l[4].dh.d.abs() < STRUCTURE_TOL
+            && l[1].dh.a.abs() > STRUCTURE_TOL
+            && l[2].dh.a.hypot(l[3].dh.d) > STRUCTURE_TOL;
+        if ok {
+            Ok(())
+        } else {
+            Err(Error::input(
+                "ik",
+                "the arm is not of the PUMA class (need a1 = 0, alpha = (90, 0, -90, 90, -90, any) deg, a4 = a5 = d5 = 0, a2 > 0)",
+            ))
+        }
+    }
+
+    /// Moves each angle by a multiple of 2π into its limits, nearest to `q_now`; `None` if an
+    /// angle cannot be placed within its limits.
+    fn fit_limits(&self, raw: &[f64; N_JOINTS], q_now: &JointVector) -> Option<JointVector> {
+        let mut q = JointVector::zeros();
+        for i in 0..N_JOINTS {
+            let [lo, hi] = self.links[i].limits;
+            // Candidates raw + 2πk inside [lo, hi]; the one nearest to q_now.
+            let k_lo = ((lo - raw[i]) / TAU).ceil() as i64;
+            let k_hi = ((hi - raw[i]) / TAU).floor() as i64;
+            if k_lo > k_hi {
+                // Tolerate round-off at a limit.
+                let clamped = raw[i] - TAU * ((raw[i] - 0.5 * (lo + hi)) / TAU).round();
+                if clamped >= lo - 1e-12 && clamped <= hi + 1e-12 {
+                    q[i] = clamped.clamp(lo, hi);
+                    continue;
+                }
+                return None;
+            }
+            let k_near = ((q_now[i] - raw[i]) / TAU).round() as i64;
+            let k = k_near.clamp(k_lo, k_hi);
+            q[i] = raw[i] + TAU * k as f64;
+        }
+        Some(q)
+    }
+
+    /// Whether the tool pose at `q` is `target` to [`CHECK_TOL`].
+    fn pose_matches(&self, q: &JointVector, target: &Isometry3<f64>) -> bool {
+        let t = self.t_base_tool(q);
+        (t.translation.vector - target.translation.vector).norm() < CHECK_TOL
+            && (t.rotation.inverse() * target.rotation).angle() < CHECK_TOL
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::UvmsModel;
+    use rand::rngs::ChaCha8Rng;
+    use rand::{RngExt, SeedableRng};
+
+    fn arm() -> Arm {
+        let m = UvmsModel::default();
+        Arm::new(&m.arm, &m.environment).unwrap()
+    }
+
+    fn random_q(arm: &Arm, rng: &mut ChaCha8Rng) -> JointVector {
+        JointVector::from_fn(|i, _| {
+            let [lo, hi] = arm.links[i].limits;
+            rng.random_range(lo..hi)
+        })
+    }
+
+    #[test]
+    fn a_generic_pose_has_eight_distinct_solutions_with_wide_limits() {
+        let mut arm = arm();
+        for l in &mut arm.links {
+            l.limits = [-PI, PI];
+        }
+        let q = JointVector::new(0.4, 0.6, -2.0, 0.5, 0.8, -0.3);
+        let sols = arm.ik(&arm.t_base_tool(&q), &q).unwrap();
+        assert_eq!(sols.analytic, 8);
+        assert_eq!(sols.len(), 8);
+        assert!((sols.nearest().unwrap() - q).norm() < 1e-9);
+        for (i, a) in sols.as_slice().iter().enumerate() {
+            for b in &sols.as_slice()[i + 1..] {
+                assert!((a - b).norm() > 1e-3, "duplicate solutions");
+            }
+        }
+    }
+
+    #[test]
+    fn unreachable_pose_gives_no_solution() {
+        let arm = arm();
+        let far = Isometry3::translation(3.0, 0.0, 0.0);
+        let sols = arm.ik(&far, &JointVector::zeros()).unwrap();
+        assert!(sols.is_empty());
+        assert_eq!(sols.analytic, 0);
+    }
+
+    #[test]
+    fn ik_of_fk_is_identity_over_random_configurations() {
+        // Property test: 10 000 random configurations within the limits (seeded).
+        let arm = arm();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut exact = 0;
+        for _ in 0..10_000 {
+            let q = random_q(&arm, &mut rng);
+            let target = arm.t_base_tool(&q);
+            let sols = arm.ik(&target, &q).unwrap();
+            assert!(!sols.is_empty(), "no solution for q = {q:?}");
+            for s in sols.as_slice() {
+                assert!(arm.within_limits(s), "solution out of limits: {s:?}");
+                assert!(arm.pose_matches(s, &target));
+            }
+            // Away from the wrist singularity the nearest solution is q itself.
+            if q[4].sin().abs() > 1e-3 {
+                let near = sols.nearest().unwrap();
+                assert!((near - q).norm() < 1e-6, "nearest {near:?} vs {q:?}");
+                exact += 1;
+            }
+        }
+        assert!(exact > 9_900);
+    }
+
+    #[test]
+    fn wrist_singularity_keeps_q4() {
+        let arm = arm();
+        let q = JointVector::new(0.2, 0.5, -1.5, 0.7, 0.0, 0.4);
+        let q_now = JointVector::new(0.2, 0.5, -1.5, 0.3, 0.0, 0.8);
+        let sols = arm.ik(&arm.t_base_tool(&q), &q_now).unwrap();
+        let near = sols.nearest().unwrap();
+        assert!(
+            (near[3] - 0.3).abs() < 1e-9 && (near[5] - 0.8).abs() < 1e-9,
+            "{near:?}"
+        );
+    }
+
+    #[test]
+    fn non_puma_arm_is_refused() {
+        let mut arm = arm();
+        arm.links[3].dh.a = 0.1;
+        assert_eq!(
+            arm.ik(&Isometry3::identity(), &JointVector::zeros())
+                .unwrap_err()
+                .exit_code(),
+            2
+        );
+    }
+}

@@ -1,0 +1,106 @@
+//! Surface normals by local principal component analysis (Hoppe et al. 1992).
+//!
+//! For every point, the `k` nearest neighbours (optionally capped to a radius) give a covariance
+//! matrix; the normal is its eigenvector of least variance. Normals are oriented towards a
+//! viewpoint (the camera, at the origin of the scan frame `S` for a scan), which is how a
+//! single-view sensor sees its surface. Runs in parallel (rayon); the result does not depend on the
+//! number of threads. Units: metres.
+
+use crate::cloud::pca::{mean_covariance_of, sorted_eigen};
+use crate::spatial::KdIndex;
+use nalgebra::{Point3, Vector3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// How normals are estimated.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NormalConfig {
+    /// Neighbours used for each point's local plane (including the point itself).
+    pub neighbours: usize,
+    /// Neighbours farther than this are left out, metres; 0 means no cap.
+    pub radius_m: f64,
+}
+
+impl Default for NormalConfig {
+    fn default() -> Self {
+        NormalConfig {
+            neighbours: 20,
+            radius_m: 0.0,
+        }
+    }
+}
+
+/// The unit normal of each point of `points` (indexed by `index`, built on the same points),
+/// oriented so that it points towards `viewpoint`. A point with fewer than three usable
+/// neighbours gets the unit direction towards the viewpoint.
+pub fn estimate_normals(
+    points: &[Point3<f64>],
+    index: &KdIndex,
+    config: &NormalConfig,
+    viewpoint: &Point3<f64>,
+) -> Vec<Vector3<f64>> {
+    let k = config.neighbours.max(3);
+    points
+        .par_iter()
+        .map(|p| {
+            let towards = (viewpoint - p).try_normalize(1e-300).unwrap_or(Vector3::z());
+            let mut nb = index.knn(p, k);
+            if config.radius_m > 0.0 {
+                nb.retain(|n| n.distance <= config.radius_m);
+            }
+            if nb.len() < 3 {
+                return towards;
+            }
+            let Some((_, cov)) = mean_covariance_of(points, nb.iter().map(|n| n.index)) else {
+                return towards;
+            };
+            let (_, axes) = sorted_eigen(&cov);
+            let n: Vector3<f64> = axes.column(2).into_owned();
+            match n.try_normalize(1e-300) {
+                Some(n) if n.dot(&towards) < 0.0 => -n,
+                Some(n) => n,
+                None => towards,
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+
+    #[test]
+    fn sphere_normals_are_radial_and_face_the_viewpoint() {
+        // Points on a sphere of radius 0.2 m centred 1 m in front of the camera.
+        let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(3);
+        let c = Point3::new(0.0, 0.0, 1.0);
+        let pts: Vec<Point3<f64>> = (0..5000)
+            .map(|_| {
+                let v = Vector3::new(
+                    rng.random::<f64>() - 0.5,
+                    rng.random::<f64>() - 0.5,
+                    rng.random::<f64>() - 0.5,
+                );
+                c + v.normalize() * 0.2
+            })
+            .collect();
+        let idx = KdIndex::new(&pts).unwrap();
+        let n = estimate_normals(&pts, &idx, &NormalConfig::default(), &Point3::origin());
+        for (p, n) in pts.iter().zip(&n) {
+            let radial = (p - c).normalize();
+            assert!(n.dot(&radial).abs() > 0.98, "normal not radial");
+            assert!(n.dot(&(Point3::origin() - p)) >= 0.0, "normal faces away");
+            assert!((n.norm() - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn isolated_points_get_the_view_direction() {
+        let pts = vec![Point3::new(0.0, 0.0, 2.0), Point3::new(1.0, 0.0, 2.0)];
+        let idx = KdIndex::new(&pts).unwrap();
+        let n = estimate_normals(&pts, &idx, &NormalConfig::default(), &Point3::origin());
+        assert!((n[0] - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-12);
+    }
+}

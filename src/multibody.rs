@@ -1,0 +1,353 @@
+//! The whole floating system: the vehicle (a 6-DOF free body) carrying the six links.
+//!
+//! Generalised velocity `ζ = [ν; q̇]` (12): `ν = [v; ω]` the vehicle's velocity at the origin
+//! of `C` in `C` axes (Fossen's body velocity), `q̇` the joint rates. Configuration: the pose
+//! `t_world_body` (NED position, unit quaternion) and the joint angles `q`.
+//!
+//! ```text
+//! H(q) ζ̇ + c(q, ζ, η) = [τ_body; τ_drive − τ_friction(q̇)]
+//! ```
+//!
+//! - `H` by the composite-rigid-body algorithm with every body's `M_RB + M_A` (the added mass is
+//!   in the solved mass matrix, never a lagged force: equations.md §2, gz-sim #1923), plus the
+//!   rotor inertias `G² Jm` on the joint diagonal. `H` depends on `q` only (everything is in `C`).
+//! - `c` by the recursive Newton–Euler algorithm with `ζ̇ = 0`: the vehicle's and the links'
+//!   Coriolis terms (`V ×* M V`), drag on the velocity relative to the current, gravity and
+//!   buoyancy, and the environment's wrench on the tool.
+//! - `ζ̇` by Cholesky.
+//!
+//! The kinematic rates are `ṗ = R ν_1`, `q̇_uat = ½ q_uat ⊗ [0; ν_2]` and `q̇`. Units: SI;
+//! frames: world `W` (NED), body `C`, arm base `0`, links `1..6`, tool `G` (DESIGN.md).
+
+use crate::arm::dynamics::{LinkMotion, LinkTransforms};
+use crate::arm::{Arm, BaseMotion, JointVector};
+use crate::body::Body;
+use crate::error::{Error, Result};
+use crate::model::{N_JOINTS, UvmsModel};
+use crate::spatial_algebra::{Force, Inertia, Motion, Xform};
+use crate::vehicle::hydro::vehicle_body;
+use nalgebra::{
+    Cholesky, Isometry3, Matrix6, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3, Vector6,
+};
+
+/// Degrees of freedom of the floating system.
+pub const NDOF: usize = 6 + N_JOINTS;
+/// Generalised vectors `[ν; q̇]` and the like.
+pub type GenVector = SVector<f64, NDOF>;
+/// Generalised matrices (the mass matrix).
+pub type GenMatrix = SMatrix<f64, NDOF, NDOF>;
+
+/// The state of the floating system.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct State {
+    /// Pose of the vehicle frame `C` in the world (NED), m.
+    pub t_world_body: Isometry3<f64>,
+    /// Vehicle velocity `[v; ω]` at `C`'s origin in `C` axes, m/s and rad/s.
+    pub nu: Vector6<f64>,
+    /// Joint angles, rad.
+    pub q: JointVector,
+    /// Joint rates, rad/s.
+    pub qd: JointVector,
+}
+
+impl State {
+    /// At rest at `t_world_body` with the arm at `q`.
+    pub fn at_rest(t_world_body: Isometry3<f64>, q: JointVector) -> Self {
+        State {
+            t_world_body,
+            nu: Vector6::zeros(),
+            q,
+            qd: JointVector::zeros(),
+        }
+    }
+
+    /// `ζ = [ν; q̇]`.
+    pub fn zeta(&self) -> GenVector {
+        let mut z = GenVector::zeros();
+        z.fixed_rows_mut::<6>(0).copy_from(&self.nu);
+        z.fixed_rows_mut::<N_JOINTS>(6).copy_from(&self.qd);
+        z
+    }
+
+    /// Whether every number is finite.
+    pub fn is_finite(&self) -> bool {
+        self.t_world_body.to_homogeneous().iter().all(|v| v.is_finite())
+            && self
+                .nu
+                .iter()
+                .chain(self.q.iter())
+                .chain(self.qd.iter())
+                .all(|v| v.is_finite())
+    }
+}
+
+/// Inputs held over an evaluation.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Inputs {
+    /// Drive torques on the link side, N·m (before friction and rotor inertia).
+    pub tau_drive: JointVector,
+    /// Wrench on the vehicle from its actuators (thrusters), `C` axes about `C`'s origin.
+    pub body_wrench: Force,
+    /// The environment's wrench on the tool: world (NED) axes, moment about the tool point.
+    pub f_env_on_tool: Force,
+}
+
+/// Accelerations and the torques that go with them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Accelerations {
+    /// `ν̇`, m/s² and rad/s² (time derivative of `ν`'s components).
+    pub nu_dot: Vector6<f64>,
+    /// `q̈`, rad/s².
+    pub qdd: JointVector,
+    /// The torque at each joint's output shaft (what a one-axis joint-torque sensor reads, the
+    /// paper's `M_dz`): `τ_drive − G² Jm q̈ − τ_friction`, N·m.
+    pub shaft_torque: JointVector,
+}
+
+/// The floating vehicle–manipulator system built from a model.
+#[derive(Debug, Clone)]
+pub struct Multibody {
+    /// The arm.
+    pub arm: Arm,
+    /// The vehicle as a body (at `C`'s origin).
+    pub vehicle: Body,
+    /// Gravity, m/s² along +z of the world.
+    pub gravity: f64,
+    /// Water velocity in the world, m/s.
+    pub current: Vector3<f64>,
+}
+
+/// Everything one evaluation needs, computed once from the configuration.
+struct Kinematics {
+    xs: LinkTransforms,
+    /// Gravity and current in `C`.
+    g_body: Vector3<f64>,
+    c_body: Vector3<f64>,
+}
+
+impl Multibody {
+    /// Builds the system of `model`.
+    ///
+    /// # Errors
+    /// [`Error::Input`] if the model does not validate.
+    pub fn new(model: &UvmsModel) -> Result<Self> {
+        model.validate("model")?;
+        let arm = Arm::new(&model.arm, &model.environment)?;
+        Ok(Multibody {
+            arm,
+            vehicle: vehicle_body(&model.vehicle, &model.environment),
+            gravity: model.environment.gravity,
+            current: crate::model::vector3(&model.environment.current),
+        })
+    }
+
+    fn kinematics(&self, s: &State) -> Kinematics {
+        let r_inv = s.t_world_body.rotation.inverse();
+        Kinematics {
+            xs: self.arm.transforms(&s.q),
+            g_body: r_inv * Vector3::new(0.0, 0.0, self.gravity),
+            c_body: r_inv * self.current,
+        }
+    }
+
+    /// The environment's tool wrench (world axes, about the tool point) in frame 6 about `o_6`.
+    fn tool_wrench(&self, s: &State, xs: &LinkTransforms, f: &Force) -> Force {
+        if f.lin == Vector3::zeros() && f.ang == Vector3::zeros() {
+            return Force::ZERO;
+        }
+        let r_body_world = s
+            .t_world_body
+            .rotation
+            .inverse()
+            .to_rotation_matrix()
+            .into_inner();
+        let r_6_world =
+            xs.x.iter()
+                .fold(self.arm.mount.rot * r_body_world, |acc, x| x.rot * acc);
+        self.arm
+            .tool_wrench_in_flange(&(r_6_world * f.lin), &(r_6_world * f.ang))
+    }
+
+    /// Generalised forces `[wrench on the vehicle in C; joint torques of the links]` that give
+    /// the accelerations `zeta_dot` at state `s` (no drive terms: no rotor inertia, no
+    /// friction), with the environment pushing on the tool with `f_env_on_tool` (world axes,
+    /// about the tool point). This is the RNEA of the whole system; with `zeta_dot = 0` it is
+    /// the bias `c`.
+    pub fn inverse_dynamics(&self, s: &State, zeta_dot: &GenVector, f_env_on_tool: &Force) -> GenVector {
+        let k = self.kinematics(s);
+        self.rnea(s, &k, zeta_dot, f_env_on_tool, None)
+    }
+
+    fn rnea(
+        &self,
+        s: &State,
+        k: &Kinematics,
+        zeta_dot: &GenVector,
+        f_env_on_tool: &Force,
+        motion: Option<&mut LinkMotion>,
+    ) -> GenVector {
+        let nu = Motion::from_vector6(&s.nu);
+        let nu_dot = Motion::from_vector6(&zeta_dot.fixed_rows::<6>(0).into_owned());
+        let base = BaseMotion {
+            velocity: self.arm.mount.motion(&nu),
+            acceleration: self.arm.mount.motion(&nu_dot),
+            gravity: self.arm.mount.rot * k.g_body,
+            current: self.arm.mount.rot * k.c_body,
+        };
+        let f6 = self.tool_wrench(s, &k.xs, f_env_on_tool);
+        let mut tau = JointVector::zeros();
+        let qdd = zeta_dot.fixed_rows::<N_JOINTS>(6).into_owned();
+        let f1 = self.arm.rnea(&k.xs, &s.qd, &qdd, &base, &f6, &mut tau, motion);
+        let on_vehicle = self.vehicle.wrench(&nu, &nu_dot, &k.g_body, &k.c_body)
+            + self.arm.mount.force_inv(&k.xs.x[0].force_inv(&f1));
+        let mut out = GenVector::zeros();
+        out.fixed_rows_mut::<6>(0).copy_from(&on_vehicle.to_vector6());
+        out.fixed_rows_mut::<N_JOINTS>(6).copy_from(&tau);
+        out
+    }
+
+    /// The mass matrix `H(q)` (12 × 12, symmetric positive definite), including added mass and
+    /// the rotor inertias.
+    pub fn mass_matrix(&self, q: &JointVector) -> GenMatrix {
+        self.mass_matrix_from(&self.arm.transforms(q))
+    }
+
+    fn mass_matrix_from(&self, xs: &LinkTransforms) -> GenMatrix {
+        let mut hqq = Matrix6::zeros();
+        let mut cols = Matrix6::zeros();
+        let arm_in_base = self.arm.crba::<true>(xs, &mut hqq, &mut cols);
+        let hvv: Inertia = self.vehicle.total + self.arm.mount.inertia_inv(&arm_in_base);
+        let mut h = GenMatrix::zeros();
+        h.fixed_view_mut::<6, 6>(0, 0).copy_from(&hvv.to_matrix6());
+        for j in 0..N_JOINTS {
+            let col = Force::from_vector6(&cols.column(j).into_owned());
+            let in_body = self.arm.mount.force_inv(&col).to_vector6();
+            h.fixed_view_mut::<6, 1>(0, 6 + j).copy_from(&in_body);
+            h.fixed_view_mut::<1, 6>(6 + j, 0).copy_from(&in_body.transpose());
+            hqq[(j, j)] += self.arm.links[j].armature;
+        }
+        h.fixed_view_mut::<6, 6>(6, 6).copy_from(&hqq);
+        h
+    }
+
+    /// Forward dynamics: the accelerations at state `s` under `u`, with the plant's smoothed
+    /// joint friction.
+    ///
+    /// # Errors
+    /// [`Error::Failed`] (stage `dynamics`) if the mass matrix is not positive definite.
+    pub fn accelerations(&self, s: &State, u: &Inputs) -> Result<Accelerations> {
+        let k = self.kinematics(s);
+        let bias = self.rnea(s, &k, &GenVector::zeros(), &u.f_env_on_tool, None);
+        let h = self.mass_matrix_from(&k.xs);
+        let friction = self.arm.friction(&s.qd, Some(self.arm.coulomb_smoothing));
+        let mut rhs = -bias;
+        let body = u.body_wrench.to_vector6();
+        for i in 0..6 {
+            rhs[i] += body[i];
+        }
+        for j in 0..N_JOINTS {
+            rhs[6 + j] += u.tau_drive[j] - friction[j];
+        }
+        let zd = Cholesky::new(h)
+            .ok_or_else(|| Error::failed("dynamics", "the mass matrix is not positive definite"))?
+            .solve(&rhs);
+        let qdd: JointVector = zd.fixed_rows::<N_JOINTS>(6).into_owned();
+        Ok(Accelerations {
+            nu_dot: zd.fixed_rows::<6>(0).into_owned(),
+            qdd,
+            shaft_torque: u.tau_drive - self.arm.armature().component_mul(&qdd) - friction,
+        })
+    }
+
+    /// Kinetic energy `½ ζᵀ H ζ` of the bodies, the water they carry (added mass) and the
+    /// rotors, J.
+    pub fn kinetic_energy(&self, s: &State) -> f64 {
+        let z = s.zeta();
+        0.5 * z.dot(&(self.mass_matrix(&s.q) * z))
+    }
+
+    /// Potential energy of gravity and buoyancy, J (zero at depth 0): `−g Σ (m z_g − ρ∇ z_b)`
+    /// over the bodies, `z` the depth (NED) of each centre of gravity and of buoyancy.
+    pub fn potential_energy(&self, s: &State) -> f64 {
+        let mut e = 0.0;
+        self.for_each_body_pose(s, |body, t_world_i| {
+            let first_moment = t_world_i.rotation * body.net_first_moment;
+            e -= self.gravity * (body.net_mass * t_world_i.translation.vector.z + first_moment.z);
+        });
+        e
+    }
+
+    /// Total spatial momentum of the bodies and their added water in the world frame: linear
+    /// momentum (kg·m/s) and angular momentum about the world origin (kg·m²/s), summed body by
+    /// body from the link velocities (not from `H`).
+    pub fn momentum_world(&self, s: &State) -> Force {
+        let k = self.kinematics(s);
+        let mut lm = LinkMotion {
+            v: [Motion::ZERO; N_JOINTS],
+            a: [Motion::ZERO; N_JOINTS],
+        };
+        let nu = Motion::from_vector6(&s.nu);
+        let base = BaseMotion {
+            velocity: self.arm.mount.motion(&nu),
+            ..Default::default()
+        };
+        let mut unused = JointVector::zeros();
+        self.arm.rnea(
+            &k.xs,
+            &s.qd,
+            &JointVector::zeros(),
+            &base,
+            &Force::ZERO,
+            &mut unused,
+            Some(&mut lm),
+        );
+        let x_world_body = Xform::from_pose(&s.t_world_body);
+        let mut total = x_world_body.force_inv(&self.vehicle.total.mul(&nu));
+        let mut x = x_world_body.then(&self.arm.mount);
+        for i in 0..N_JOINTS {
+            x = x.then(&k.xs.x[i]);
+            total += x.force_inv(&self.arm.links[i].body.total.mul(&lm.v[i]));
+        }
+        total
+    }
+
+    /// Calls `f` with each body (vehicle first, then links 1..6) and its pose in the world.
+    fn for_each_body_pose(&self, s: &State, mut f: impl FnMut(&Body, &Isometry3<f64>)) {
+        f(&self.vehicle, &s.t_world_body);
+        let chain = self.arm.chain(&s.q);
+        let t_world_base = s.t_world_body * self.arm.t_body_base;
+        for i in 0..N_JOINTS {
+            let t = t_world_base * crate::arm::kinematics::isometry(&chain.rot[i], &chain.pos[i]);
+            f(&self.arm.links[i].body, &t);
+        }
+    }
+
+    /// Pose of the tool frame `G` in the world.
+    pub fn t_world_tool(&self, s: &State) -> Isometry3<f64> {
+        s.t_world_body * self.arm.t_body_base * self.arm.t_base_tool(&s.q)
+    }
+
+    /// Velocity of the tool point and angular velocity of the tool, world axes: `[v; ω]`.
+    pub fn tool_velocity_world(&self, s: &State) -> Vector6<f64> {
+        // In C: the vehicle's motion carried to the tool point plus the arm's Jacobian.
+        let t_body_tool = self.arm.t_body_base * self.arm.t_base_tool(&s.q);
+        let p = t_body_tool.translation.vector;
+        let w = Vector3::new(s.nu[3], s.nu[4], s.nu[5]);
+        let v_vehicle = Vector3::new(s.nu[0], s.nu[1], s.nu[2]) + w.cross(&p);
+        let j = self.arm.jacobian(&s.q) * s.qd;
+        let r_b0 = self.arm.t_body_base.rotation;
+        let v = v_vehicle + r_b0 * Vector3::new(j[0], j[1], j[2]);
+        let om = w + r_b0 * Vector3::new(j[3], j[4], j[5]);
+        let r = s.t_world_body.rotation;
+        let (v, om) = (r * v, r * om);
+        Vector6::new(v.x, v.y, v.z, om.x, om.y, om.z)
+    }
+
+    /// The kinematic rates of the configuration: `ṗ = R ν_1` (world, `R` from the normalised
+    /// `q`) and the quaternion rate `½ q ⊗ [0; ν_2]` (of `q` as given, normalised or not).
+    pub fn pose_rate(q: &Quaternion<f64>, nu: &Vector6<f64>) -> (Vector3<f64>, Quaternion<f64>) {
+        let v = Vector3::new(nu[0], nu[1], nu[2]);
+        let w = Quaternion::new(0.0, nu[3], nu[4], nu[5]);
+        (UnitQuaternion::from_quaternion(*q) * v, q * w * 0.5)
+    }
+}

@@ -1,0 +1,426 @@
+//! The perception pipeline: a scan to the object's cluster ([`segment`]), and on to the aligned
+//! reference model, the triangulated scan surface and the alignment's accuracy ([`check`]).
+//!
+//! Stages, in order, each configured by its own table of [`PerceptionConfig`] and timed:
+//! `clean` (range gate, voxel down-sampling, statistical outlier removal) → `seabed` (RANSAC plane,
+//! [`crate::segment::seabed`]) → `cluster` (Euclidean clusters of what stands on it) → `select`
+//! (the cluster that matches the reference's size and shape) → `normals` → `register` (global
+//! initial guess, hidden-point removal, ICP) → `surface` (2.5-D Delaunay of the object) →
+//! `accuracy` (the seed's [59] test trajectories; pose errors and ADD-S with ground truth).
+//!
+//! Frames: everything is in the scan frame `S` (camera at `view.camera_m`, the origin for a
+//! stereo scan) except the reference model, which is in its own frame; `t_scan_reference` maps the
+//! model into the scan. Units: metres, seconds.
+
+use crate::accuracy::{AccuracyConfig, Deviation, TruthErrors, trajectory_accuracy, truth_errors};
+use crate::cloud::PointCloud;
+use crate::cloud::filter::{
+    OutlierConfig, RangeCropConfig, VoxelConfig, crop_range, remove_statistical_outliers, voxel_downsample,
+};
+use crate::cloud::normals::{NormalConfig, estimate_normals};
+use crate::cloud::pca::{PrincipalAxes, principal_axes};
+use crate::error::{Error, Result};
+use crate::frames::Pose;
+use crate::mesh::TriangleMesh;
+use crate::register::{InitMode, ReferenceModel, RegisterConfig, Registration, register, visible_source};
+use crate::segment::cluster::{Cluster, ClusterConfig, euclidean_clusters};
+use crate::segment::seabed::{SeabedConfig, SeabedFit, find_seabed, object_side};
+use crate::segment::select::{SelectConfig, Selection, select_cluster};
+use crate::spatial::KdIndex;
+use crate::surface::Surface;
+use crate::triangulate::{SurfaceConfig, triangulate_view};
+use nalgebra::{Point3, Vector3};
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Cleaning of the raw scan.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CleanConfig {
+    /// Closest kept range from the camera, metres.
+    pub min_range_m: f64,
+    /// Farthest kept range from the camera, metres; 0 means no limit.
+    pub max_range_m: f64,
+    /// Voxel edge for down-sampling, metres; 0 keeps every point.
+    pub voxel_m: f64,
+    /// Remove statistical outliers (flying pixels, speckle).
+    pub remove_outliers: bool,
+    /// Statistical outlier removal.
+    pub outliers: OutlierConfig,
+}
+
+impl Default for CleanConfig {
+    fn default() -> Self {
+        CleanConfig {
+            min_range_m: 0.0,
+            max_range_m: 0.0,
+            voxel_m: 0.0,
+            remove_outliers: true,
+            outliers: OutlierConfig::default(),
+        }
+    }
+}
+
+/// Where the camera is.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ViewConfig {
+    /// The camera's centre in the scan frame, metres (the origin for a stereo scan in `S`).
+    pub camera_m: [f64; 3],
+}
+
+impl Default for ViewConfig {
+    fn default() -> Self {
+        ViewConfig { camera_m: [0.0; 3] }
+    }
+}
+
+impl ViewConfig {
+    /// The camera's centre.
+    pub fn camera(&self) -> Point3<f64> {
+        Point3::from(self.camera_m)
+    }
+}
+
+/// Configuration of every perception stage (the `[perception]` tables of a pipeline file, or a
+/// `--config` file of `uvms segment` / `uvms check`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PerceptionConfig {
+    /// The camera.
+    pub view: ViewConfig,
+    /// Cleaning of the raw scan.
+    pub clean: CleanConfig,
+    /// Seabed removal.
+    pub seabed: SeabedConfig,
+    /// Euclidean clustering.
+    pub cluster: ClusterConfig,
+    /// Choice of the object's cluster.
+    pub select: SelectConfig,
+    /// Normals of the scanned object.
+    pub normals: NormalConfig,
+    /// Registration of the reference model.
+    pub register: RegisterConfig,
+    /// Triangulation of the scanned object.
+    pub surface: SurfaceConfig,
+    /// The [59] accuracy estimate.
+    pub accuracy: AccuracyConfig,
+}
+
+/// Wall time of one stage.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StageTime {
+    /// Stage name.
+    pub stage: String,
+    /// Wall time, seconds.
+    pub seconds: f64,
+}
+
+/// Per-stage wall times, in the order the stages ran.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Timings(pub Vec<StageTime>);
+
+impl Timings {
+    /// Runs `f` and records its wall time under `stage`.
+    pub fn time<T>(&mut self, stage: &str, f: impl FnOnce() -> T) -> T {
+        let t0 = Instant::now();
+        let out = f();
+        self.0.push(StageTime {
+            stage: stage.to_string(),
+            seconds: t0.elapsed().as_secs_f64(),
+        });
+        out
+    }
+
+    /// Total wall time, seconds.
+    pub fn total(&self) -> f64 {
+        self.0.iter().map(|s| s.seconds).sum()
+    }
+}
+
+/// Point counts through the cleaning stage.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CleanReport {
+    /// Points in the scan.
+    pub input: usize,
+    /// After the range gate.
+    pub after_range: usize,
+    /// After voxel down-sampling.
+    pub after_voxel: usize,
+    /// After outlier removal.
+    pub after_outliers: usize,
+}
+
+/// The scan cleaned and cut into seabed, clusters and the object.
+#[derive(Debug, Clone)]
+pub struct Segmentation {
+    /// The cleaned scan; every index below refers to it.
+    pub cloud: PointCloud,
+    /// Point counts through cleaning.
+    pub cleaning: CleanReport,
+    /// The seabed (when the stage ran).
+    pub seabed: Option<SeabedFit>,
+    /// Points on the object side of the seabed (all points without the seabed stage).
+    pub object_side: Vec<usize>,
+    /// Clusters (largest first); one cluster of the whole object side when clustering is off.
+    pub clusters: Vec<Cluster>,
+    /// The object's cluster.
+    pub selection: Selection,
+    /// Wall time per stage.
+    pub timings: Timings,
+}
+
+impl Segmentation {
+    /// The object's cluster.
+    pub fn object(&self) -> &Cluster {
+        &self.clusters[self.selection.index]
+    }
+
+    /// The object's points (scan frame), with their colours when the scan has them.
+    pub fn object_cloud(&self) -> PointCloud {
+        self.cloud.select(&self.object().indices)
+    }
+}
+
+/// The cleaning stage.
+///
+/// # Errors
+/// [`Error::Input`] for a bad configuration; [`Error::Failed`] (stage `clean`) when no point
+/// survives.
+pub fn clean(
+    scan: &PointCloud,
+    cfg: &CleanConfig,
+    camera: &Point3<f64>,
+) -> Result<(PointCloud, CleanReport)> {
+    let input = scan.len();
+    let mut cloud = if cfg.min_range_m > 0.0 || cfg.max_range_m > 0.0 {
+        let gate = RangeCropConfig {
+            viewpoint: camera.coords.into(),
+            min_m: cfg.min_range_m,
+            max_m: if cfg.max_range_m > 0.0 {
+                cfg.max_range_m
+            } else {
+                f64::INFINITY
+            },
+        };
+        crop_range(scan, &gate)?.cloud
+    } else {
+        scan.clone()
+    };
+    let after_range = cloud.len();
+    if cfg.voxel_m > 0.0 && !cloud.is_empty() {
+        cloud = voxel_downsample(&cloud, &VoxelConfig { voxel_m: cfg.voxel_m })?.cloud;
+    }
+    let after_voxel = cloud.len();
+    if cfg.remove_outliers && cloud.len() > cfg.outliers.neighbours {
+        cloud = remove_statistical_outliers(&cloud, &cfg.outliers)?.cloud;
+    }
+    if cloud.is_empty() {
+        return Err(Error::failed(
+            "clean",
+            format!("no point of the {input} left after cleaning"),
+        ));
+    }
+    let report = CleanReport {
+        input,
+        after_range,
+        after_voxel,
+        after_outliers: cloud.len(),
+    };
+    Ok((cloud, report))
+}
+
+/// Cleans the scan, removes the seabed (near the prior `up` when given), clusters what stands on
+/// it and chooses the object's cluster: the one matching `reference_spans` (the reference model's
+/// principal spans, decreasing) or, without a reference, the largest.
+///
+/// # Errors
+/// [`Error::Input`] for a bad configuration; [`Error::Failed`] when no plane, no cluster or no
+/// cluster fitting the reference is found.
+pub fn segment(
+    scan: &PointCloud,
+    up: Option<&Vector3<f64>>,
+    reference_spans: Option<&Vector3<f64>>,
+    cfg: &PerceptionConfig,
+) -> Result<Segmentation> {
+    let mut timings = Timings::default();
+    let camera = cfg.view.camera();
+    let (cloud, cleaning) = timings.time("clean", || clean(scan, &cfg.clean, &camera))?;
+    let (seabed, object_side) = if cfg.seabed.enabled {
+        let fit = timings.time("seabed", || find_seabed(&cloud.points, up, &cfg.seabed))?;
+        let side = object_side(&cloud.points, &fit, &cfg.seabed);
+        (Some(fit), side)
+    } else {
+        ((None), (0..cloud.len()).collect())
+    };
+    if object_side.is_empty() {
+        return Err(Error::failed(
+            "cluster",
+            "no point on the object side of the seabed",
+        ));
+    }
+    let side_points: Vec<Point3<f64>> = object_side.iter().map(|&i| cloud.points[i]).collect();
+    let clusters = timings.time("cluster", || -> Result<Vec<Cluster>> {
+        if cfg.cluster.enabled {
+            let index = KdIndex::new(&side_points)?;
+            let found = euclidean_clusters(&side_points, &index, &cfg.cluster)?;
+            // Back to indices into the cleaned cloud.
+            Ok(found
+                .clusters
+                .into_iter()
+                .map(|c| Cluster {
+                    indices: c.indices.iter().map(|&i| object_side[i]).collect(),
+                    shape: c.shape,
+                })
+                .collect())
+        } else {
+            let shape = principal_axes(&side_points, cfg.cluster.span_quantile)
+                .ok_or_else(|| Error::failed("cluster", "no points"))?;
+            Ok(vec![Cluster {
+                indices: object_side.clone(),
+                shape,
+            }])
+        }
+    })?;
+    let selection = timings.time("select", || {
+        select_cluster(&clusters, reference_spans, &cfg.select)
+    })?;
+    Ok(Segmentation {
+        cloud,
+        cleaning,
+        seabed,
+        object_side,
+        clusters,
+        selection,
+        timings,
+    })
+}
+
+/// How `check` runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckOptions {
+    /// Prior on the seabed normal in the scan frame.
+    pub up: Option<Vector3<f64>>,
+    /// Where ICP starts.
+    pub init: InitMode,
+    /// The scan is the object already: skip the seabed, clustering and selection.
+    pub whole_scan: bool,
+    /// The true `t_scan_reference`, when known.
+    pub truth: Option<Pose>,
+}
+
+impl Default for CheckOptions {
+    fn default() -> Self {
+        CheckOptions {
+            up: None,
+            init: InitMode::Auto,
+            whole_scan: false,
+            truth: None,
+        }
+    }
+}
+
+/// Everything `check` found: the public results the planning stage uses.
+#[derive(Debug, Clone)]
+pub struct CheckResult {
+    /// The segmentation (`None` with `whole_scan`).
+    pub segmentation: Option<Segmentation>,
+    /// The scanned object's points with their normals (scan frame).
+    pub object: PointCloud,
+    /// The scanned object's principal axes and spans (scan frame).
+    pub object_shape: PrincipalAxes,
+    /// The registration: `t_scan_reference`, fitness, inlier RMSE, iterations, convergence.
+    pub registration: Registration,
+    /// The reference model's principal axes placed in the scan frame (its longitudinal axis is
+    /// column 0 of `axes`).
+    pub reference_axes: PrincipalAxes,
+    /// The triangulated scan surface of the object (scan frame, normals towards the camera).
+    pub scan_surface: TriangleMesh,
+    /// The aligned reference surface (scan frame): the model's mesh moved by `t_scan_reference`,
+    /// or for a point-cloud model the triangulation of its visible points.
+    pub reference_surface: TriangleMesh,
+    /// The seed's [59] estimate: test trajectories on both surfaces.
+    pub accuracy: Deviation,
+    /// Errors against the ground truth, when given.
+    pub truth: Option<TruthErrors>,
+    /// Wall time per stage (segmentation's stages included).
+    pub timings: Timings,
+}
+
+/// Segments the scan (unless `whole_scan`), registers `model` onto the object, triangulates the
+/// object's surface and estimates the alignment's accuracy.
+///
+/// # Errors
+/// [`Error::Input`] for a bad configuration; [`Error::Failed`] naming the stage that failed (no
+/// plane, no fitting cluster, ICP not converged — with what it reached).
+pub fn check(
+    scan: &PointCloud,
+    model: &ReferenceModel,
+    opts: &CheckOptions,
+    cfg: &PerceptionConfig,
+) -> Result<CheckResult> {
+    let camera = cfg.view.camera();
+    let (segmentation, object_points, mut timings) = if opts.whole_scan {
+        let mut t = Timings::default();
+        let (cloud, _) = t.time("clean", || clean(scan, &cfg.clean, &camera))?;
+        (None, cloud, t)
+    } else {
+        let seg = segment(scan, opts.up.as_ref(), Some(&model.shape.spans), cfg)?;
+        let obj = seg.object_cloud();
+        let t = seg.timings.clone();
+        (Some(seg), obj, t)
+    };
+    let mut object = object_points;
+    let index = KdIndex::new(&object.points)?;
+    let normals = timings.time("normals", || {
+        estimate_normals(&object.points, &index, &cfg.normals, &camera)
+    });
+    object.normals = Some(normals);
+    let object_shape = principal_axes(&object.points, 0.01)
+        .ok_or_else(|| Error::failed("register", "the object has no points"))?;
+    let normals = object.normals.as_deref().unwrap_or(&[]);
+    let registration = timings.time("register", || {
+        register(model, &object.points, normals, &index, &opts.init, &cfg.register)
+    })?;
+    let pose = registration.t_scan_reference;
+    let scan_surface = timings.time("surface", || {
+        triangulate_view(&object.points, &camera, &cfg.surface)
+    })?;
+    let reference_surface = timings.time("reference_surface", || match &model.mesh {
+        Some(m) => Ok(m.transformed(&pose)),
+        None => {
+            let visible: Vec<Point3<f64>> = visible_source(model, &pose, &cfg.register.hidden_points)
+                .iter()
+                .map(|p| pose * p)
+                .collect();
+            triangulate_view(&visible, &camera, &cfg.surface)
+        }
+    })?;
+    let accuracy = timings.time("accuracy", || -> Result<Deviation> {
+        let scan_s = Surface::new(&scan_surface)?;
+        let ref_s = Surface::new(&reference_surface)?;
+        trajectory_accuracy(&object.points, &camera, &scan_s, &ref_s, &cfg.accuracy)
+    })?;
+    let truth = match &opts.truth {
+        Some(t) => Some(truth_errors(&model.points, &pose, t)?),
+        None => None,
+    };
+    let reference_axes = PrincipalAxes {
+        centroid: pose * model.shape.centroid,
+        axes: pose.rotation.to_rotation_matrix().matrix() * model.shape.axes,
+        variances: model.shape.variances,
+        spans: model.shape.spans,
+    };
+    Ok(CheckResult {
+        segmentation,
+        object,
+        object_shape,
+        registration,
+        reference_axes,
+        scan_surface,
+        reference_surface,
+        accuracy,
+        truth,
+        timings,
+    })
+}

@@ -1,0 +1,250 @@
+//! A global initial guess for ICP that the object's symmetries cannot fool.
+//!
+//! Principal axes alone are ambiguous: every axis has two signs, a body of revolution has no
+//! defined second axis, and a single-view scan sees half the object, so its minor axes need not
+//! match the model's. So candidates are enumerated and each is judged on the data:
+//! 1. each of the model's three axes is laid along the scan's major axis, both ways round (both
+//!    end-to-end orientations), and turned about it in `rotation_steps` equal steps — `3 × 2 ×
+//!    rotation_steps` rotations, which include the sign flips of the aligned PCA frames;
+//! 2. each candidate's translation puts the centroids together and is then corrected by a few
+//!    trimmed mean-offset steps (the scan sees the near side only, so its centroid is biased);
+//! 3. each gets a short, coarse point-to-plane ICP from a few hundred scan points to the model
+//!    (scan → model, since every scanned point must lie on the model while most model points are
+//!    unseen) and is scored by the truncated RMS distance of the scan's points to the model,
+//!    `√mean(min(d², τ²))`;
+//! 4. the `refine` best get a longer ICP on more points and are scored again; the best wins.
+//!
+//! Frames: poses map reference-model coordinates into scan coordinates (`t_scan_reference`).
+
+use crate::cloud::pca::PrincipalAxes;
+use crate::error::{Error, Result};
+use crate::frames::Pose;
+use crate::register::ReferenceModel;
+use crate::register::icp::{IcpConfig, icp_point_to_plane};
+use nalgebra::{Matrix3, Point3, Rotation3, Translation3, Unit, UnitQuaternion, Vector3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Configuration of the global initial guess.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct InitConfig {
+    /// Turns about the scan's major axis tried per axis pairing (8: every 45°).
+    pub rotation_steps: usize,
+    /// Scan points (evenly strided) for the coarse ICP every candidate gets.
+    pub coarse_points: usize,
+    /// Iterations of the coarse ICP.
+    pub coarse_iterations: usize,
+    /// Best candidates refined further.
+    pub refine: usize,
+    /// Scan points (evenly strided) for the refinement.
+    pub sample_points: usize,
+    /// Iterations of the refinement.
+    pub icp_iterations: usize,
+    /// Gate of the short ICP as a fraction of the model's largest span.
+    pub gate_fraction: f64,
+    /// Truncation `τ` of the score as a fraction of the model's largest span.
+    pub score_fraction: f64,
+}
+
+impl Default for InitConfig {
+    fn default() -> Self {
+        InitConfig {
+            rotation_steps: 8,
+            coarse_points: 300,
+            coarse_iterations: 12,
+            refine: 4,
+            sample_points: 1000,
+            icp_iterations: 20,
+            gate_fraction: 0.2,
+            score_fraction: 0.05,
+        }
+    }
+}
+
+/// The chosen initial guess.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InitOutcome {
+    /// Maps reference coordinates into scan coordinates.
+    pub t_scan_reference: Pose,
+    /// Candidates scored.
+    pub candidates: usize,
+    /// Truncated RMS scan → model distance of the winner, metres.
+    pub score_m: f64,
+    /// The same for the best candidate that differs from the winner by more than 10°, metres
+    /// (how clearly the winner won; `None` if every refined candidate agrees).
+    pub runner_up_score_m: Option<f64>,
+}
+
+/// The candidate rotations (model frame → scan frame) for the model's and the scan's principal
+/// axes: each model axis along the scan's major axis, both ways, turned in `steps` steps.
+pub fn candidate_rotations(model: &Matrix3<f64>, scan: &Matrix3<f64>, steps: usize) -> Vec<Rotation3<f64>> {
+    let s1 = Unit::new_normalize(scan.column(0).into_owned());
+    let mut out = Vec::with_capacity(6 * steps.max(1));
+    for i in 0..3 {
+        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+        let a = Matrix3::from_columns(&[model.column(i), model.column(j), model.column(k)]);
+        for sign in [1.0, -1.0] {
+            let mut b = Matrix3::from_columns(&[
+                scan.column(0) * sign,
+                scan.column(1).into_owned(),
+                scan.column(2).into_owned(),
+            ]);
+            if (b * a.transpose()).determinant() < 0.0 {
+                let c = -b.column(2);
+                b.set_column(2, &c);
+            }
+            let r0 = Rotation3::from_matrix_unchecked(b * a.transpose());
+            for s in 0..steps.max(1) {
+                let turn =
+                    Rotation3::from_axis_angle(&s1, std::f64::consts::TAU * s as f64 / steps.max(1) as f64);
+                out.push(turn * r0);
+            }
+        }
+    }
+    out
+}
+
+/// Truncated RMS distance (metres) from `scan` points mapped into the model frame by `pose⁻¹` to
+/// the model, and the trimmed mean offset (model frame) of the pairs within `tau`.
+fn score(model: &ReferenceModel, scan: &[Point3<f64>], pose: &Pose, tau: f64) -> (f64, Vector3<f64>) {
+    let inv = pose.inverse();
+    let (mut sum, mut off, mut n) = (0.0, Vector3::zeros(), 0usize);
+    for s in scan {
+        let x = inv * s;
+        if let Some(nb) = model.index.nearest(&x) {
+            sum += nb.distance.min(tau).powi(2);
+            if nb.distance < tau {
+                off += model.points[nb.index] - x;
+                n += 1;
+            }
+        }
+    }
+    let rms = (sum / scan.len().max(1) as f64).sqrt();
+    (rms, if n > 0 { off / n as f64 } else { Vector3::zeros() })
+}
+
+/// Chooses an initial `t_scan_reference` for the scanned object `scan` (its principal axes
+/// `scan_shape`) and the reference `model`.
+///
+/// # Errors
+/// [`Error::Input`] for a configuration that cannot work; [`Error::Failed`] (stage `init`) when
+/// the scan has too few points.
+pub fn initial_guess(
+    model: &ReferenceModel,
+    scan: &[Point3<f64>],
+    scan_shape: &PrincipalAxes,
+    cfg: &InitConfig,
+) -> Result<InitOutcome> {
+    if cfg.rotation_steps == 0 || cfg.refine == 0 || cfg.sample_points < 10 {
+        return Err(Error::input(
+            "init",
+            "rotation_steps and refine must be ≥ 1 and sample_points ≥ 10",
+        ));
+    }
+    if !(cfg.gate_fraction > 0.0 && cfg.score_fraction > 0.0) {
+        return Err(Error::input(
+            "init",
+            "gate_fraction and score_fraction must be > 0",
+        ));
+    }
+    if scan.len() < 10 {
+        return Err(Error::failed(
+            "init",
+            format!("the scanned object has only {} points", scan.len()),
+        ));
+    }
+    let strided = |n: usize| -> Vec<Point3<f64>> {
+        scan.iter()
+            .step_by(scan.len().div_ceil(n).max(1))
+            .copied()
+            .collect()
+    };
+    let coarse = strided(cfg.coarse_points.max(10));
+    let sample = strided(cfg.sample_points);
+    let size = model.shape.spans.max().max(1e-6);
+    let tau = cfg.score_fraction * size;
+    let gate = cfg.gate_fraction * size;
+    let rotations = candidate_rotations(&model.shape.axes, &scan_shape.axes, cfg.rotation_steps);
+    let candidates = rotations.len();
+    // Short ICP from scan to model (every scanned point lies on the model) and the score after it.
+    let refine = |pts: &[Point3<f64>], pose: &Pose, iterations: usize| -> (Pose, f64) {
+        let short = IcpConfig {
+            max_iterations: iterations.max(1),
+            min_gate_m: (0.1 * tau).max(1e-6),
+            gate_shrink: 0.85,
+            ..IcpConfig::default()
+        };
+        let s0 = score(model, pts, pose, tau).0;
+        match icp_point_to_plane(pts, model.surfel(), None, &pose.inverse(), gate, &short) {
+            Ok(o) => {
+                let p = o.t_target_source.inverse();
+                let s = score(model, pts, &p, tau).0;
+                if s <= s0 { (p, s) } else { (*pose, s0) }
+            }
+            Err(_) => (*pose, s0),
+        }
+    };
+    let mut scored: Vec<(Pose, f64)> = rotations
+        .par_iter()
+        .map(|r| {
+            let q = UnitQuaternion::from_rotation_matrix(r);
+            let mut pose = Pose::from_parts(
+                Translation3::from(scan_shape.centroid.coords - r * model.shape.centroid.coords),
+                q,
+            );
+            for _ in 0..3 {
+                // Moving the model by −off (model frame) moves it onto the scan's points.
+                let (_, off) = score(model, &coarse, &pose, gate);
+                pose *= Translation3::from(-off);
+            }
+            refine(&coarse, &pose, cfg.coarse_iterations)
+        })
+        .collect();
+    scored.sort_by(|a, b| a.1.total_cmp(&b.1));
+    scored.truncate(cfg.refine);
+    let mut refined: Vec<(Pose, f64)> = scored
+        .par_iter()
+        .map(|(pose, _)| refine(&sample, pose, cfg.icp_iterations))
+        .collect();
+    refined.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let (best, best_s) = refined[0];
+    let runner_up = refined
+        .iter()
+        .skip(1)
+        .find(|(p, _)| (best.rotation.inverse() * p.rotation).angle() > 10f64.to_radians())
+        .map(|r| r.1);
+    Ok(InitOutcome {
+        t_scan_reference: best,
+        candidates,
+        score_m: best_s,
+        runner_up_score_m: runner_up,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn candidates_are_rotations_and_include_the_pca_alignment() {
+        let m = *Rotation3::from_euler_angles(0.2, 0.4, -0.3).matrix();
+        let s = *Rotation3::from_euler_angles(-1.0, 0.1, 0.7).matrix();
+        let c = candidate_rotations(&m, &s, 8);
+        assert_eq!(c.len(), 48);
+        for r in &c {
+            assert!((r.matrix().determinant() - 1.0).abs() < 1e-9);
+            assert!((r.matrix().transpose() * r.matrix() - Matrix3::identity()).norm() < 1e-9);
+        }
+        // The plain alignment s·mᵀ and its three sign-flipped variants are all among them.
+        for flip in [
+            [1.0, 1.0, 1.0],
+            [1.0, -1.0, -1.0],
+            [-1.0, 1.0, -1.0],
+            [-1.0, -1.0, 1.0],
+        ] {
+            let r = s * Matrix3::from_diagonal(&Vector3::from(flip)) * m.transpose();
+            assert!(c.iter().any(|x| (x.matrix() - r).norm() < 1e-9), "{flip:?}");
+        }
+    }
+}

@@ -1,0 +1,319 @@
+//! Physical laws the floating vehicle–manipulator system must obey: conservation of energy and
+//! momentum, hydrostatic righting at the predicted frequency, terminal surge speed, Coriolis
+//! terms that do no work, and uniform drift with the current.
+
+use nalgebra::{Cholesky, Isometry3, Matrix6, UnitQuaternion, Vector3, Vector6};
+use uvms::arm::{BaseMotion, JointVector};
+use uvms::integrate::Integrator;
+use uvms::model::UvmsModel;
+use uvms::multibody::{GenVector, Inputs, Multibody, State};
+use uvms::plant::{Plant, PlantInput};
+use uvms::spatial_algebra::Force;
+
+/// The default model in an ideal fluid: no gravity (so no buoyancy), no damping, no drag, no
+/// joint friction. Added mass stays (it stores kinetic energy, it does not dissipate).
+fn ideal_fluid_model() -> UvmsModel {
+    let mut m = UvmsModel::default();
+    m.environment.gravity = 0.0;
+    m.vehicle.linear_damping = [0.0; 6];
+    m.vehicle.quadratic_damping = [0.0; 6];
+    for l in &mut m.arm.links {
+        l.viscous_friction = 0.0;
+        l.coulomb_friction = [0.0; 2];
+        if let Some(c) = &mut l.hydro {
+            c.drag_cross = 0.0;
+            c.drag_axial = 0.0;
+        }
+    }
+    m
+}
+
+/// The vehicle alone: the arm's links are massless and have no hydrodynamic body (their rotors
+/// keep the mass matrix definite and stay still).
+fn vehicle_only_model() -> UvmsModel {
+    let mut m = UvmsModel::default();
+    for l in &mut m.arm.links {
+        l.mass = 0.0;
+        l.inertia = [[0.0; 3]; 3];
+        l.hydro = None;
+    }
+    m.vehicle.displaced_volume = m.vehicle.mass / m.environment.water_density; // neutral
+    m
+}
+
+fn moving_state() -> State {
+    State {
+        t_world_body: Isometry3::from_parts(
+            Vector3::new(1.0, -2.0, 5.0).into(),
+            UnitQuaternion::from_euler_angles(0.1, -0.05, 0.7),
+        ),
+        nu: Vector6::new(0.2, -0.1, 0.15, 0.1, -0.05, 0.2),
+        q: JointVector::new(0.3, 0.8, -2.2, 0.4, 0.9, -0.6),
+        qd: JointVector::new(0.5, -0.4, 0.6, 0.8, -0.7, 0.9),
+    }
+}
+
+fn run(
+    plant: &mut Plant,
+    dt: f64,
+    steps: usize,
+    mut tau: impl FnMut(f64) -> JointVector,
+    mut each: impl FnMut(&Plant),
+) {
+    let cmd = vec![0.0; plant.thrusters.len()];
+    for _ in 0..steps {
+        let input = PlantInput {
+            tau_drive: tau(plant.time),
+            thrust_cmd: &cmd,
+            f_env_on_tool: Force::ZERO,
+        };
+        plant.step(dt, &input).unwrap();
+        each(plant);
+    }
+}
+
+#[test]
+fn energy_and_momentum_are_conserved_in_an_ideal_fluid() {
+    // 10 s of RK4 at 1 ms, no actuation: kinetic energy (bodies + added water + rotors) and
+    // world-frame momentum stay constant.
+    let mut plant = Plant::new(&ideal_fluid_model(), moving_state(), Integrator::Rk4).unwrap();
+    let e0 = plant.system.kinetic_energy(&plant.state);
+    let h0 = plant.system.momentum_world(&plant.state).to_vector6();
+    run(&mut plant, 1e-3, 10_000, |_| JointVector::zeros(), |_| {});
+    let e1 = plant.system.kinetic_energy(&plant.state);
+    let h1 = plant.system.momentum_world(&plant.state).to_vector6();
+    let drift = (e1 - e0).abs() / e0;
+    eprintln!(
+        "energy {e0:.9} J -> {e1:.9} J, relative drift {drift:.3e}; momentum change {:.3e}",
+        (h1 - h0).norm()
+    );
+    assert!(drift < 1e-6, "relative energy drift {drift:e}");
+    assert!((h1 - h0).norm() < 1e-8 * h0.norm(), "momentum {h0} -> {h1}");
+    // The motion was not trivial: the arm moved and the vehicle turned.
+    assert!((plant.state.q - moving_state().q).norm() > 0.5);
+}
+
+#[test]
+fn internal_joint_torques_leave_momentum_unchanged() {
+    // Joint drives push links against each other and against the vehicle: internal forces.
+    let mut plant = Plant::new(&ideal_fluid_model(), moving_state(), Integrator::Rk4).unwrap();
+    let h0 = plant.system.momentum_world(&plant.state).to_vector6();
+    let e0 = plant.system.kinetic_energy(&plant.state);
+    let tau = |t: f64| {
+        JointVector::from_fn(|i, _| [20.0, 40.0, 15.0, 2.0, 2.0, 1.0][i] * (2.0 * t + i as f64).sin())
+    };
+    let mut worst: f64 = 0.0;
+    run(&mut plant, 1e-3, 3_000, tau, |p| {
+        let h = p.system.momentum_world(&p.state).to_vector6();
+        worst = worst.max((h - h0).norm());
+    });
+    let e1 = plant.system.kinetic_energy(&plant.state);
+    eprintln!(
+        "momentum |h0| = {:.6}, largest change {worst:.3e}; energy {e0:.3} -> {e1:.3} J",
+        h0.norm()
+    );
+    assert!(worst < 1e-8 * h0.norm(), "momentum changed by {worst:e}");
+    assert!((e1 - e0).abs() > 1e-3 * e0, "the torques did work");
+}
+
+#[test]
+fn coriolis_terms_do_no_work() {
+    // For the whole system ζᵀ (c(q, ζ) − ½ Ḣ ζ) = 0 in an ideal fluid at rest (the skew
+    // symmetry of Ḣ − 2C), with Ḣ = dH/dq · q̇ by central differences.
+    let sys = Multibody::new(&ideal_fluid_model()).unwrap();
+    let s = moving_state();
+    let z = s.zeta();
+    let c = sys.inverse_dynamics(&s, &GenVector::zeros(), &Force::ZERO);
+    let eps = 1e-6;
+    let hdot = (sys.mass_matrix(&(s.q + s.qd * eps)) - sys.mass_matrix(&(s.q - s.qd * eps))) / (2.0 * eps);
+    let power = z.dot(&c);
+    let half = 0.5 * z.dot(&(hdot * z));
+    eprintln!("zeta^T c = {power:.9}, 1/2 zeta^T Hdot zeta = {half:.9}");
+    assert!(
+        (power - half).abs() < 1e-6 * (1.0 + half.abs()),
+        "{power} vs {half}"
+    );
+}
+
+#[test]
+fn a_system_drifting_with_the_current_stays_in_uniform_motion() {
+    // Water moving at 0.4 m/s north-east-down; the whole system moves with it, arm still, no
+    // gravity: no relative flow, no force, no acceleration.
+    let mut m = UvmsModel::default();
+    m.environment.gravity = 0.0;
+    m.environment.current = [0.3, 0.2, 0.1];
+    let sys = Multibody::new(&m).unwrap();
+    let mut s = moving_state();
+    s.qd = JointVector::zeros();
+    let v_body = s.t_world_body.rotation.inverse() * Vector3::new(0.3, 0.2, 0.1);
+    s.nu = Vector6::new(v_body.x, v_body.y, v_body.z, 0.0, 0.0, 0.0);
+    let a = sys.accelerations(&s, &Inputs::default()).unwrap();
+    assert!(
+        a.nu_dot.norm() < 1e-12 && a.qdd.norm() < 1e-12,
+        "{} {}",
+        a.nu_dot,
+        a.qdd
+    );
+    // In still water the same motion is slowed by drag.
+    m.environment.current = [0.0; 3];
+    let a = Multibody::new(&m)
+        .unwrap()
+        .accelerations(&s, &Inputs::default())
+        .unwrap();
+    assert!(a.nu_dot.fixed_rows::<3>(0).dot(&s.nu.fixed_rows::<3>(0)) < 0.0);
+}
+
+#[test]
+fn floating_dynamics_inverts_the_floating_rnea_and_matches_the_arm_rnea() {
+    let m = UvmsModel::default();
+    let sys = Multibody::new(&m).unwrap();
+    let s = moving_state();
+    let zd = GenVector::from_fn(|i, _| [0.3, -0.2, 0.1, 0.4, -0.3, 0.2, 1.0, -0.5, 0.8, -1.2, 0.9, 2.0][i]);
+    let tool = Force::new(Vector3::new(5.0, -3.0, 40.0), Vector3::new(0.2, -0.1, 0.3));
+    let forces = sys.inverse_dynamics(&s, &zd, &tool);
+    // The arm's own RNEA on the moving base gives the same joint torques.
+    let nu_dot = Vector6::from_fn(|i, _| zd[i]);
+    let base = BaseMotion::on_vehicle(
+        &sys.arm,
+        &s.t_world_body.rotation,
+        &s.nu,
+        &nu_dot,
+        9.81,
+        &Vector3::zeros(),
+    );
+    let r_base_world = (s.t_world_body * sys.arm.t_body_base).rotation.inverse();
+    let tool_base = Force::new(r_base_world * tool.lin, r_base_world * tool.ang);
+    let qdd = JointVector::from_fn(|i, _| zd[6 + i]);
+    let id = sys
+        .arm
+        .inverse_dynamics(&s.q, &s.qd, &qdd, &base, Some(&tool_base));
+    assert!((id.tau_rigid - forces.fixed_rows::<6>(6)).norm() < 1e-9);
+    // Forward dynamics with those forces (plus the drives' rotor and friction terms) returns ζ̇.
+    let tau_drive = id.tau_rigid
+        + sys.arm.armature().component_mul(&qdd)
+        + sys.arm.friction(&s.qd, Some(sys.arm.coulomb_smoothing));
+    let u = Inputs {
+        tau_drive,
+        body_wrench: Force::from_vector6(&forces.fixed_rows::<6>(0).into_owned()),
+        f_env_on_tool: tool,
+    };
+    let a = sys.accelerations(&s, &u).unwrap();
+    assert!((a.nu_dot - nu_dot).norm() < 1e-9 && (a.qdd - qdd).norm() < 1e-9);
+    // The joint-torque sensor reads the links' torque: shaft = τ_rigid.
+    assert!((a.shaft_torque - id.tau_rigid).norm() < 1e-9);
+}
+
+#[test]
+fn a_bottom_heavy_vehicle_rights_itself_at_the_predicted_frequency() {
+    let m = vehicle_only_model();
+    let sys = Multibody::new(&m).unwrap();
+    // Linearised: M ẍ + K x = 0 with M = M_RB + M_A at C's origin and the restoring stiffness
+    // K_44 = K_55 = W·BG (neutral buoyancy, CB at C's origin, CG BG below it).
+    let mass: Matrix6<f64> = sys.vehicle.total.to_matrix6();
+    let w_bg = m.vehicle.mass * m.environment.gravity * m.vehicle.center_of_gravity[2];
+    let mut k = Matrix6::zeros();
+    k[(3, 3)] = w_bg;
+    k[(4, 4)] = w_bg;
+    let l = Cholesky::new(mass).unwrap().l();
+    let l_inv = l.try_inverse().unwrap();
+    let eig = (l_inv * k * l_inv.transpose()).symmetric_eigen();
+    // The roll mode: the eigenvector whose shape has the largest roll part.
+    let (mode, omega2) = (0..6)
+        .filter(|&i| eig.eigenvalues[i] > 1e-9)
+        .map(|i| (l_inv.transpose() * eig.eigenvectors.column(i), eig.eigenvalues[i]))
+        .max_by(|a, b| (a.0[3].abs() / a.0.norm()).total_cmp(&(b.0[3].abs() / b.0.norm())))
+        .unwrap();
+    let omega = omega2.sqrt();
+    let shape = mode / mode[3] * 0.05; // 0.05 rad of roll
+    eprintln!(
+        "predicted roll frequency {omega:.5} rad/s (period {:.4} s), mode {:?}",
+        std::f64::consts::TAU / omega,
+        shape.as_slice()
+    );
+
+    // Undamped: the period of the roll oscillation from its zero crossings.
+    let mut undamped = m.clone();
+    undamped.vehicle.linear_damping = [0.0; 6];
+    undamped.vehicle.quadratic_damping = [0.0; 6];
+    let start = State::at_rest(
+        Isometry3::from_parts(
+            Vector3::new(shape[0], shape[1], shape[2]).into(),
+            UnitQuaternion::from_scaled_axis(Vector3::new(shape[3], shape[4], shape[5])),
+        ),
+        JointVector::zeros(),
+    );
+    let mut plant = Plant::new(&undamped, start, Integrator::Rk4).unwrap();
+    let roll = |p: &Plant| p.state.t_world_body.rotation.euler_angles().0;
+    let mut crossings = Vec::new();
+    let mut prev = roll(&plant);
+    let dt = 0.002;
+    let period = std::f64::consts::TAU / omega;
+    run(
+        &mut plant,
+        dt,
+        (5.5 * period / dt) as usize,
+        |_| JointVector::zeros(),
+        |p| {
+            let r = roll(p);
+            if prev > 0.0 && r <= 0.0 {
+                crossings.push(p.time - dt * r / (r - prev)); // linear interpolation
+            }
+            prev = r;
+        },
+    );
+    assert!(crossings.len() >= 4, "{crossings:?}");
+    let measured = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
+    eprintln!("measured period {measured:.4} s");
+    assert!(
+        (measured - period).abs() < 5e-3 * period,
+        "period {measured} vs {period}"
+    );
+
+    // Damped: it rights itself.
+    let mut plant = Plant::new(&m, start, Integrator::Rk4).unwrap();
+    run(&mut plant, 0.01, 6000, |_| JointVector::zeros(), |_| {});
+    let (r, p, _) = plant.state.t_world_body.rotation.euler_angles();
+    eprintln!("after 60 s with damping: roll {r:.2e} rad, pitch {p:.2e} rad");
+    assert!(r.abs() < 0.05 * 0.05 && p.abs() < 0.05 * 0.05);
+}
+
+#[test]
+fn constant_thrust_settles_the_surge_speed_where_thrust_equals_damping() {
+    // Vehicle alone with a diagonal added mass; the two surge thrusters push 50 N each through
+    // the CG plane. Terminal speed: T = d_l u + d_q u².
+    let mut m = vehicle_only_model();
+    for (r, row) in m.vehicle.added_mass.iter_mut().enumerate() {
+        for (c, v) in row.iter_mut().enumerate() {
+            if r != c {
+                *v = 0.0;
+            }
+        }
+    }
+    let thrust = 100.0;
+    let (dl, dq) = (m.vehicle.linear_damping[0], m.vehicle.quadratic_damping[0]);
+    let u_star = (-dl + (dl * dl + 4.0 * dq * thrust).sqrt()) / (2.0 * dq);
+    let mut plant = Plant::new(
+        &m,
+        State::at_rest(Isometry3::identity(), JointVector::zeros()),
+        Integrator::Rk4,
+    )
+    .unwrap();
+    let cmd = [thrust / 2.0, thrust / 2.0, 0.0, 0.0, 0.0, 0.0];
+    for _ in 0..4000 {
+        let input = PlantInput {
+            tau_drive: JointVector::zeros(),
+            thrust_cmd: &cmd,
+            f_env_on_tool: Force::ZERO,
+        };
+        plant.step(0.01, &input).unwrap();
+    }
+    let nu = plant.state.nu;
+    eprintln!(
+        "surge {:.6} m/s, predicted {u_star:.6} m/s; rest of nu {:?}",
+        nu[0],
+        &nu.as_slice()[1..]
+    );
+    assert!((plant.thrusters.thrusts()[0] - 50.0).abs() < 1e-6);
+    assert!((nu[0] - u_star).abs() < 1e-5 * u_star, "{} vs {u_star}", nu[0]);
+    assert!(nu.rows(1, 5).norm() < 1e-6);
+}
