@@ -158,19 +158,26 @@ impl ObjectAxes {
         {
             axis = -axis;
         }
+        Ok(Self::with_axis(mesh, Point3::from(centre), axis))
+    }
+
+    /// The extent of a mesh about a given centre and axis (normalised here; any principal-axes
+    /// estimate, e.g. the registration's `reference_axes`).
+    pub fn with_axis(mesh: &TriangleMesh, centre: Point3<f64>, axis: Vector3<f64>) -> ObjectAxes {
+        let axis = axis.try_normalize(1e-12).unwrap_or(Vector3::x());
         let (mut half_length, mut radius) = (0.0f64, 0.0f64);
         for v in &mesh.vertices {
-            let d = v.coords - centre;
+            let d = v - centre;
             let along = d.dot(&axis);
             half_length = half_length.max(along.abs());
             radius = radius.max((d - axis * along).norm());
         }
-        Ok(ObjectAxes {
-            centre: Point3::from(centre),
+        ObjectAxes {
+            centre,
             axis,
             half_length,
             radius,
-        })
+        }
     }
 }
 

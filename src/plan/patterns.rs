@@ -331,6 +331,18 @@ fn passes(width: f64, spacing: f64) -> (usize, f64) {
     (n, width / (n - 1) as f64)
 }
 
+/// Why a line's scanned range falls short of the wanted range, side by side.
+fn why(line: &Line, want: (f64, f64), have: (f64, f64)) -> String {
+    let mut out = Vec::new();
+    if want.0 < have.0 {
+        out.push(format!("at the start {}", line.stops.0.describe()));
+    }
+    if want.1 > have.1 {
+        out.push(format!("at the end {}", line.stops.1.describe()));
+    }
+    out.join(", ")
+}
+
 fn band_error(what: String) -> Error {
     Error::failed(
         "plan",
@@ -507,10 +519,11 @@ pub fn ring(ctx: &Context, cfg: &RingConfig) -> Result<PatternPath> {
         };
         let ((lo, hi), c) = fit((want_lo, want_hi), seen, clip, || {
             format!(
-                "the ring's arc of {:.1}° exceeds the arc scanned at station {s:.3} m ({:.1}° to {:.1}° about the camera-facing direction)",
+                "the ring's arc of {:.1}° exceeds the arc scanned at station {s:.3} m ({:.1}° to {:.1}° about the camera-facing direction; {})",
                 cfg.arc_deg,
                 seen.0.to_degrees(),
-                seen.1.to_degrees()
+                seen.1.to_degrees(),
+                why(&line, (-half, half), (seen.0, seen.1))
             )
         })?;
         clipped |= c;
@@ -590,8 +603,15 @@ pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
         clip,
         || {
             format!(
-                "the raster's height of {:.3} m exceeds the scanned surface ({:.3} m to {:.3} m about its centre)",
-                cfg.height_m, transect.scanned.0, transect.scanned.1
+                "the raster's height of {:.3} m exceeds the scanned surface ({:.3} m to {:.3} m about its centre; {})",
+                cfg.height_m,
+                transect.scanned.0,
+                transect.scanned.1,
+                why(
+                    &transect,
+                    (-cfg.height_m / 2.0, cfg.height_m / 2.0),
+                    transect.scanned
+                )
             )
         },
     )?;
@@ -607,8 +627,11 @@ pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
             let row = walk_line(&tu, centre, cfg.width_m / 2.0);
             let ((a, b), cl) = fit((-cfg.width_m / 2.0, cfg.width_m / 2.0), row.scanned, clip, || {
                 format!(
-                    "row {j} of the raster ({:.3} m long) exceeds the scanned surface ({:.3} m to {:.3} m about its centre)",
-                    cfg.width_m, row.scanned.0, row.scanned.1
+                    "row {j} of the raster ({:.3} m long) exceeds the scanned surface ({:.3} m to {:.3} m about its centre; {})",
+                    cfg.width_m,
+                    row.scanned.0,
+                    row.scanned.1,
+                    why(&row, (-cfg.width_m / 2.0, cfg.width_m / 2.0), row.scanned)
                 )
             })?;
             let range = (row.at(a).tau, row.at(b).tau);
