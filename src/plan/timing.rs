@@ -72,8 +72,8 @@ impl TimingConfig {
 /// Resamples a path at a uniform straight-line (chord) spacing, so that the tool moves exactly
 /// the same distance in every sample period. Each sample is the first point of the path, going
 /// forward, at distance `h` from the previous one; `h` is the spacing nearest to `spacing` that
-/// makes a whole number of steps end on the path's last point (found by bisection). Returns the
-/// samples (both ends kept) and `h`.
+/// makes a whole number of steps end on the path's last point. Returns the samples (both ends
+/// kept) and `h`.
 ///
 /// # Errors
 /// [`Error::Failed`] if the path is shorter than half a spacing.
@@ -90,25 +90,72 @@ pub fn resample(points: &[PathPoint], spacing: f64) -> Result<(Vec<PathPoint>, f
         ));
     }
     let n = ((length / spacing).round() as usize).max(1);
-    // `h` too short leaves path after the n-th step; too long runs out of path before it.
-    let fits = |h: f64| chord_walk(points, h, n + 1).len() == n + 1;
+    // Where the n-th step ends, as arc length along the path; past the end when the path runs
+    // out first (then by the steps still missing). Increasing in h; solved for the path's length
+    // by regula falsi (Illinois), which converges in a handful of walks.
+    let mut cum = Vec::with_capacity(points.len());
+    let mut acc = 0.0;
+    for (i, p) in points.iter().enumerate() {
+        if i > 0 {
+            acc += (p.point - points[i - 1].point).norm();
+        }
+        cum.push(acc);
+    }
+    let reach = |h: f64| {
+        let w = chord_walk(points, h, n + 1);
+        match w.get(n) {
+            Some(&(j, u)) => cum[j] + u * (cum[j + 1] - cum[j]),
+            None => length + (n + 1 - w.len()) as f64 * h,
+        }
+    };
     let (mut lo, mut hi) = (0.5 * length / n as f64, 1.5 * length / n as f64);
-    while !fits(lo) && lo > 1e-12 {
+    while reach(lo) > length && lo > 1e-12 {
         lo *= 0.5;
     }
-    while fits(hi) && hi < length {
+    while reach(hi) < length && hi < length {
         hi *= 2.0;
     }
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if fits(mid) { lo = mid } else { hi = mid }
+    let (mut f_lo, mut f_hi) = (reach(lo) - length, reach(hi) - length);
+    let mut side = 0;
+    for _ in 0..200 {
+        if hi - lo <= 1e-15 * hi || f_lo == 0.0 {
+            break;
+        }
+        let mid = if f_hi > f_lo {
+            lo - f_lo * (hi - lo) / (f_hi - f_lo)
+        } else {
+            0.5 * (lo + hi)
+        };
+        let mid = if mid > lo && mid < hi {
+            mid
+        } else {
+            0.5 * (lo + hi)
+        };
+        let f = reach(mid) - length;
+        if f.abs() <= 1e-13 * length {
+            lo = mid;
+            break;
+        }
+        if f < 0.0 {
+            (lo, f_lo) = (mid, f);
+            if side == -1 {
+                f_hi *= 0.5;
+            }
+            side = -1;
+        } else {
+            (hi, f_hi) = (mid, f);
+            if side == 1 {
+                f_lo *= 0.5;
+            }
+            side = 1;
+        }
     }
     let steps = chord_walk(points, lo, n + 1);
     let mut out: Vec<PathPoint> = steps
         .iter()
         .map(|&(j, u)| points[j].lerp(&points[j + 1], u))
         .collect();
-    // The last step ends within the bisection's precision of the path's end: put it there.
+    // The last step ends within the solver's precision of the path's end: put it there.
     if let (Some(last), Some(end)) = (out.last_mut(), points.last()) {
         *last = *end;
     }
