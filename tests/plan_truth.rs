@@ -455,6 +455,19 @@ fn clear_errors() {
     let mut cfg = PlanConfig::default();
     cfg.timing.speed_m_s = -1.0;
     assert_eq!(plan(&scene.input(), &cfg).unwrap_err().exit_code(), 2);
+    // Settings that would need absurd numbers of samples are refused before anything is
+    // allocated.
+    for set in [
+        (|c: &mut PlanConfig| c.projection.step_m = 1e-9) as fn(&mut PlanConfig),
+        |c| c.timing.sample_period_s = 1e-12,
+        |c| c.timing.standoff_m = 1e9,
+        |c| c.ring.width_m = 1e9,
+        |c| c.timing.dwell_s = f64::INFINITY,
+    ] {
+        let mut cfg = PlanConfig::default();
+        set(&mut cfg);
+        assert_eq!(plan(&scene.input(), &cfg).unwrap_err().exit_code(), 2);
+    }
 }
 
 #[test]

@@ -26,8 +26,8 @@
 //! metres, degrees in the configuration.
 
 use super::project::{
-    Facing, Guide, Line, PathPoint, ProjectionConfig, Projector, SmoothSurface, bridge_holes, non_negative,
-    positive, project_all,
+    Facing, Guide, Line, PathPoint, ProjectionConfig, Projector, SmoothSurface, bounded_count, bridge_holes,
+    non_negative, positive, project_all,
 };
 use super::{ObjectAxes, ObjectInput, PlanInput, perpendicular};
 use crate::error::{Error, Result};
@@ -251,6 +251,8 @@ pub fn validate(
     ] {
         positive(what, v)?;
     }
+    bounded_count("ring.width_m", ring.width_m, ring.spacing_m)?;
+    bounded_count("raster.height_m", raster.height_m, raster.spacing_m)?;
     if !(ring.arc_deg.is_finite() && (0.0..=360.0).contains(&ring.arc_deg)) {
         return Err(Error::input("ring.arc_deg", "must be between 0 and 360"));
     }
@@ -794,6 +796,7 @@ pub fn line(ctx: &Context, cfg: &LineConfig) -> Result<PatternPath> {
             config,
         },
     };
+    bounded_count("line.length_m", cfg.length_m, config.step_m)?;
     let steps = (cfg.length_m / config.step_m).ceil().max(1.0) as usize;
     let taus: Vec<f64> = (0..=steps)
         .map(|i| -cfg.length_m / 2.0 + cfg.length_m * i as f64 / steps as f64)
@@ -980,6 +983,8 @@ pub fn polyline(ctx: &Context, cfg: &PolylineConfig) -> Result<PatternPath> {
         .map(|(p, f)| (to_scan * p, f.unwrap_or(cfg.force_n)))
         .collect();
     let step = pj.config.step_m;
+    let total: f64 = pts.windows(2).map(|w| (w[1].0 - w[0].0).norm()).sum();
+    bounded_count(&file.display().to_string(), total, step)?;
     let mut guides = Vec::new();
     let mut tau = 0.0;
     let mut previous: Option<Point3<f64>> = None;

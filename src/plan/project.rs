@@ -76,6 +76,9 @@ impl ProjectionConfig {
         positive("projection.smoothing_radius_m", self.smoothing_radius_m)?;
         positive("projection.tolerance_m", self.tolerance_m)?;
         non_negative("projection.max_hole_m", self.max_hole_m)?;
+        if self.step_m < 1e-5 {
+            return Err(Error::input("projection.step_m", "must be at least 1e-5 m"));
+        }
         if self.smoothing_radius_m < 2.0 * self.step_m {
             return Err(Error::input(
                 "projection.smoothing_radius_m",
@@ -83,6 +86,27 @@ impl ProjectionConfig {
             ));
         }
         Ok(())
+    }
+}
+
+/// The most samples, guide rays or passes one trajectory may need: beyond it the settings are
+/// taken as a mistake (a microscopic step, a band kilometres wide) rather than a run that would
+/// exhaust the memory.
+pub const MAX_COUNT: f64 = 1e7;
+
+/// `Ok` if `numerator / denominator` (a count of steps) is at most [`MAX_COUNT`], else an input
+/// error naming `what`.
+pub(crate) fn bounded_count(what: &str, numerator: f64, denominator: f64) -> Result<()> {
+    if numerator / denominator <= MAX_COUNT {
+        Ok(())
+    } else {
+        Err(Error::input(
+            what,
+            format!(
+                "would need {:.3e} steps (at most {MAX_COUNT:.0e}); use a coarser step or a smaller extent",
+                numerator / denominator
+            ),
+        ))
     }
 }
 

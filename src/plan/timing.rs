@@ -12,7 +12,7 @@
 //! seed's advice for critical operations); after the last point it retreats along `-k`. No force
 //! is demanded during the approach and the retreat.
 
-use super::project::{PathPoint, non_negative, positive};
+use super::project::{MAX_COUNT, PathPoint, bounded_count, non_negative, positive};
 use crate::error::{Error, Result};
 use crate::trajectory::{Phase, Sample};
 use nalgebra::UnitQuaternion;
@@ -60,7 +60,26 @@ impl TimingConfig {
         non_negative("timing.standoff_m", self.standoff_m)?;
         positive("timing.approach_speed_m_s", self.approach_speed_m_s)?;
         non_negative("timing.dwell_s", self.dwell_s)?;
-        positive("timing.retreat_speed_m_s", self.retreat_speed_m_s)
+        positive("timing.retreat_speed_m_s", self.retreat_speed_m_s)?;
+        let period = self.sample_period_s;
+        bounded_count(
+            "timing.standoff_m",
+            self.standoff_m,
+            self.approach_speed_m_s * period,
+        )?;
+        bounded_count(
+            "timing.standoff_m",
+            self.standoff_m,
+            self.retreat_speed_m_s * period,
+        )?;
+        bounded_count("timing.dwell_s", self.dwell_s, period)?;
+        if self.spacing() < 1e-6 {
+            return Err(Error::input(
+                "timing.sample_period_s",
+                "speed × sample period must be at least 1 µm",
+            ));
+        }
+        Ok(())
     }
 
     /// The nominal distance between samples in contact, metres.
@@ -86,6 +105,14 @@ pub fn resample(points: &[PathPoint], spacing: f64) -> Result<(Vec<PathPoint>, f
                 "the projected path is {:.1} mm long, too short to sample at {:.1} mm",
                 length * 1e3,
                 spacing * 1e3
+            ),
+        ));
+    }
+    if length / spacing > MAX_COUNT {
+        return Err(Error::failed(
+            "plan",
+            format!(
+                "the path ({length:.3} m) would need more than {MAX_COUNT:.0e} samples at {spacing} m; raise timing.sample_period_s"
             ),
         ));
     }
