@@ -9,9 +9,11 @@
 //! 1. [`patterns`]: a ring, raster, line or polyline placed relative to the aligned reference's
 //!    principal axes ([`ObjectAxes`]) and the camera's viewpoint;
 //! 2. [`project`]: ray casting onto the scan, falling back to the aligned reference mesh in the
-//!    scan's holes (flagged), with smoothed normals and positions;
-//! 3. [`timing::resample`]: uniform spacing at the tool speed;
-//! 4. [`tool_frame`]: `z_G = -n`, `x_G` = path tangent, optional service angle;
+//!    scan's holes (flagged, and moved to the scan's level at the hole's borders), with smoothed
+//!    normals and positions;
+//! 3. [`timing::resample`]: a uniform straight-line spacing at the tool speed;
+//! 4. [`tool_frame`]: `z_G = -n` (normals smoothed again along the path), `x_G` = path tangent,
+//!    optional service angle;
 //! 5. [`timing::schedule`]: the orientation-rate limit, approach, dwell and retreat;
 //! 6. the frame change from the scan frame `S` to the world `W`
 //!    (`t_world_scan = t_world_vehicle · t_vehicle_camera`, [`ScanFrames`]).

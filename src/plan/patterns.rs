@@ -7,19 +7,20 @@
 //!   it spans the arc the camera saw (the scanned arc around the camera-facing direction, less
 //!   an edge margin); `arc_deg` asks for a given arc, centred on the camera-facing direction. A
 //!   band of `width_m` is covered by parallel passes at most `spacing_m` apart, boustrophedon,
-//!   joined by short moves along the axis on the surface.
+//!   joined by U-turns on the surface (radius half the pass spacing).
 //! - **raster**: boustrophedon coverage of a `width_m × height_m` region of the surface, seen
 //!   from the camera: rays parallel to the line of sight through the object's centre; rows run
 //!   along (or across) the object's axis. Lengths are measured on the surface: rows are placed at
-//!   most `spacing_m` apart along a transect through the region's centre, and each row covers
-//!   `width_m` of arc length about that transect.
+//!   most `spacing_m` apart along a transect through the region's centre, each row covers
+//!   `width_m` of arc length about that transect, and rows are joined by U-turns.
 //! - **line** (soil sampling, the seed's first case): a straight path on the seabed beside the
 //!   object, parallel to its axis (turned by `heading_deg`), at immersion depth `depth_m` below the
 //!   surface; rays along the seabed plane's normal onto the triangulated seabed when there is one
-//!   (the plane where it has holes), or onto the plane itself.
+//!   (the plane where it has holes), or onto the plane itself. Without an object (a sediment
+//!   patch) it is centred where the optical axis meets the seabed and runs along the image's x.
 //! - **polyline**: points read from a CSV file (`x_m,y_m,z_m[,force_n]`) in the reference model's
-//!   frame (or the scan's or the world's), densified, and cast onto the scan along the reference
-//!   surface's normal at the closest point.
+//!   frame (or the scan's or the world's), corners rounded (`corner_radius_m`), densified, and
+//!   cast onto the scan along the reference surface's normal.
 //!
 //! A band that extends beyond the scanned surface (its end would lie on the reference or
 //! nowhere) is an error unless `projection.clip` trims it to the scan. Frame: the scan frame `S`;
