@@ -3,8 +3,8 @@
 //! scans, 15 MB) and `double x y z` (uvms's own output, 24 MB). Reported in bytes per second.
 //! For comparison, the same float file read with ply-rs-bw's generic parser (`DefaultElement`).
 //!
-//! `cargo bench --bench ply_read`; the Open3D figure on the same file:
-//! `python3 -c "import open3d as o3d, time; ..."` (see the README section on PLY I/O).
+//! `cargo bench --bench ply_read`; the Open3D figure on the same files:
+//! `python3 benches/open3d_read.py` (after the bench has written them).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use nalgebra::Point3;

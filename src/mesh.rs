@@ -12,6 +12,18 @@ pub struct TriangleMesh {
 }
 
 impl TriangleMesh {
+    /// Signed enclosed volume, cubic metres (divergence theorem): positive for a closed mesh
+    /// wound outward, meaningless for an open one.
+    pub fn signed_volume(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.vertices[i as usize].coords);
+                a.dot(&b.cross(&c)) / 6.0
+            })
+            .sum()
+    }
+
     /// The unit normal of triangle `t` (by its winding), or `None` for a degenerate triangle.
     pub fn triangle_normal(&self, t: usize) -> Option<Vector3<f64>> {
         let [a, b, c] = self.triangles[t].map(|i| self.vertices[i as usize]);

@@ -351,3 +351,59 @@ impl Multibody {
         (UnitQuaternion::from_quaternion(*q) * v, q * w * 0.5)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrate::exp_twist;
+
+    #[test]
+    fn tool_velocity_is_the_rate_of_the_tool_pose() {
+        let m = UvmsModel::default();
+        let sys = Multibody::new(&m).unwrap();
+        let s = State {
+            t_world_body: Isometry3::from_parts(
+                Vector3::new(0.5, 1.0, 3.0).into(),
+                UnitQuaternion::from_euler_angles(0.2, -0.1, 1.0),
+            ),
+            nu: Vector6::new(0.3, -0.2, 0.1, 0.2, -0.1, 0.3),
+            q: JointVector::new(0.2, 0.9, -2.0, 0.3, 0.8, -0.2),
+            qd: JointVector::new(0.4, -0.3, 0.5, -0.6, 0.7, 0.8),
+        };
+        let h = 1e-6;
+        let moved = State {
+            t_world_body: exp_twist(&s.t_world_body, &s.nu, h),
+            q: s.q + s.qd * h,
+            ..s
+        };
+        let (t0, t1) = (sys.t_world_tool(&s), sys.t_world_tool(&moved));
+        let v = (t1.translation.vector - t0.translation.vector) / h;
+        let w = (t1.rotation * t0.rotation.inverse()).scaled_axis() / h;
+        let got = sys.tool_velocity_world(&s);
+        assert!((got.fixed_rows::<3>(0) - v).norm() < 1e-5, "{got} vs {v}");
+        assert!((got.fixed_rows::<3>(3) - w).norm() < 1e-5, "{got} vs {w}");
+    }
+
+    #[test]
+    fn mass_matrix_is_symmetric_positive_definite_and_holds_the_added_mass() {
+        let m = UvmsModel::default();
+        let sys = Multibody::new(&m).unwrap();
+        let q = JointVector::new(0.2, 0.9, -2.0, 0.3, 0.8, -0.2);
+        let h = sys.mass_matrix(&q);
+        assert!((h - h.transpose()).abs().max() < 1e-12);
+        assert!(h.symmetric_eigenvalues().min() > 0.0);
+        // Heave: vehicle + links + the vehicle's heave added mass (≈ 2 m) and the links'.
+        let mut dry = m.clone();
+        dry.environment.water_density = 0.0; // no link added mass
+        dry.vehicle.added_mass = [[0.0; 6]; 6];
+        let h_dry = Multibody::new(&dry).unwrap().mass_matrix(&q);
+        let extra = h[(2, 2)] - h_dry[(2, 2)];
+        assert!(
+            extra > m.vehicle.added_mass[2][2] && extra < m.vehicle.added_mass[2][2] + 30.0,
+            "{extra}"
+        );
+        assert!(
+            (h_dry[(0, 0)] - (m.vehicle.mass + m.arm.links.iter().map(|l| l.mass).sum::<f64>())).abs() < 1e-9
+        );
+    }
+}

@@ -183,3 +183,51 @@ fn unpack_raw(x: &Packed) -> (State, Quaternion<f64>) {
 fn unpack(x: &Packed) -> State {
     unpack_raw(x).0
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plant() -> Plant {
+        let s = State::at_rest(
+            Isometry3::identity(),
+            JointVector::new(0.0, 0.9, -2.0, 0.0, 0.5, 0.0),
+        );
+        Plant::new(&UvmsModel::default(), s, Integrator::Rk4).unwrap()
+    }
+
+    #[test]
+    fn drive_torques_are_clipped_to_the_limits() {
+        let mut p = plant();
+        let cmd = [0.0; 6];
+        let input = PlantInput {
+            tau_drive: JointVector::new(500.0, -500.0, 10.0, 0.0, 0.0, 0.0),
+            thrust_cmd: &cmd,
+            f_env_on_tool: Force::ZERO,
+        };
+        let r = p.step(1e-3, &input).unwrap();
+        assert_eq!(r.tau_applied[0], 97.6);
+        assert_eq!(r.tau_applied[1], -186.4);
+        assert_eq!(r.tau_applied[2], 10.0);
+        assert!((p.time - 1e-3).abs() < 1e-15);
+    }
+
+    #[test]
+    fn bad_steps_are_input_errors() {
+        let mut p = plant();
+        let input = PlantInput {
+            tau_drive: JointVector::zeros(),
+            thrust_cmd: &[0.0; 6],
+            f_env_on_tool: Force::ZERO,
+        };
+        assert_eq!(p.step(0.0, &input).unwrap_err().exit_code(), 2);
+        let short = PlantInput {
+            thrust_cmd: &[0.0; 3],
+            ..input
+        };
+        assert_eq!(p.step(1e-3, &short).unwrap_err().exit_code(), 2);
+        let mut s = p.state;
+        s.nu[0] = f64::NAN;
+        assert!(Plant::new(&UvmsModel::default(), s, Integrator::Rk4).is_err());
+    }
+}

@@ -251,21 +251,34 @@ impl Xform {
     /// A generalised mass given in `c` (at its origin, in its axes) expressed in `p`: `Xᵀ I X`.
     #[inline]
     pub fn inertia_inv(&self, i: &Inertia) -> Inertia {
-        // Rotate into p axes (still about c's origin), then move the reference point to p's origin.
         let e = &self.rot;
+        let r = &self.pos;
+        let c1 = e.tr_mul(&(i.c * e));
+        if i.rigid {
+            // a = m 1, b = −S(h): h' = Eᵀh + m r, C' = C1 − h' rᵀ − r h1ᵀ + (r·h' + r·h1) 1.
+            let m = i.a[(0, 0)];
+            let h1 = e.tr_mul(&i.first_moment());
+            let h2 = h1 + r * m;
+            let c = c1 - h2 * r.transpose() - r * h1.transpose()
+                + Matrix3::identity() * (r.dot(&h2) + r.dot(&h1));
+            return Inertia {
+                a: i.a,
+                b: -skew(&h2),
+                c,
+                rigid: true,
+            };
+        }
+        // Rotate into p axes (still about c's origin), then move the reference point to p's
+        // origin: B' = B − A S(r), C' = C + S(r) B' − Bᵀ S(r).
         let a = e.tr_mul(&(i.a * e));
         let b = e.tr_mul(&(i.b * e));
-        let c = e.tr_mul(&(i.c * e));
-        let s = skew(&self.pos);
-        let a_s = a * s;
-        let b2 = b - a_s;
-        // C' = C + S B − Bᵀ S − S A S, written with B' = B − A S: C' = C + S B' − Bᵀ S.
-        let sb2 = s * b2;
-        let bts = b.tr_mul(&s);
+        let s = skew(r);
+        let b2 = b - a * s;
         Inertia {
             a,
             b: b2,
-            c: c + sb2 - bts,
+            c: c1 + s * b2 - b.tr_mul(&s),
+            rigid: false,
         }
     }
 
@@ -282,15 +295,18 @@ impl Xform {
 
 /// A symmetric 6×6 generalised mass at a frame's origin, [linear; angular] order:
 /// `[f; n] = [a v + b ω; bᵀ v + c ω]`. For a rigid body of mass m with centre of mass `c_m`
-/// and inertia `I_c` about it: `a = m 1`, `b = −m S(c_m)`, `c = I_c − m S(c_m)²`.
+/// and inertia `I_c` about it: `a = m 1`, `b = −m S(c_m)`, `c = I_c − m S(c_m)²`; rigid-body
+/// inertias (and sums of them) are flagged and take cheaper paths.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Inertia {
     /// Translational block (symmetric), kg.
-    pub a: Matrix3<f64>,
+    a: Matrix3<f64>,
     /// Coupling block, kg·m.
-    pub b: Matrix3<f64>,
+    b: Matrix3<f64>,
     /// Rotational block (symmetric), kg·m².
-    pub c: Matrix3<f64>,
+    c: Matrix3<f64>,
+    /// `a = m 1` and `b = −S(h)`: a rigid body's inertia.
+    rigid: bool,
 }
 
 impl Default for Inertia {
@@ -305,7 +321,35 @@ impl Inertia {
         a: Matrix3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
         b: Matrix3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
         c: Matrix3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+        rigid: true,
     };
+
+    /// A general generalised mass from its blocks (`a`, `c` symmetric): `[f; n] = [a v + b ω;
+    /// bᵀ v + c ω]`.
+    pub fn from_blocks(a: Matrix3<f64>, b: Matrix3<f64>, c: Matrix3<f64>) -> Self {
+        Inertia {
+            a,
+            b,
+            c,
+            rigid: false,
+        }
+    }
+
+    /// The blocks `(a, b, c)`.
+    pub fn blocks(&self) -> (&Matrix3<f64>, &Matrix3<f64>, &Matrix3<f64>) {
+        (&self.a, &self.b, &self.c)
+    }
+
+    /// Whether this is a rigid body's inertia (`a = m 1`, `b` skew).
+    pub fn is_rigid(&self) -> bool {
+        self.rigid
+    }
+
+    /// `h` of a rigid inertia (`b = −S(h)`, `h = m c_m`).
+    #[inline]
+    fn first_moment(&self) -> Vector3<f64> {
+        Vector3::new(-self.b[(2, 1)], -self.b[(0, 2)], -self.b[(1, 0)])
+    }
 
     /// A rigid body: `mass` (kg), centre of mass `com` from the origin (m), inertia `inertia_com`
     /// about the centre of mass (kg·m²), all in the frame's axes.
@@ -315,6 +359,7 @@ impl Inertia {
             a: Matrix3::identity() * mass,
             b: -s * mass,
             c: inertia_com - s * s * mass,
+            rigid: true,
         }
     }
 
@@ -324,6 +369,7 @@ impl Inertia {
             a: m.fixed_view::<3, 3>(0, 0).into_owned(),
             b: m.fixed_view::<3, 3>(0, 3).into_owned(),
             c: m.fixed_view::<3, 3>(3, 3).into_owned(),
+            rigid: false,
         }
     }
 
@@ -340,6 +386,14 @@ impl Inertia {
     /// The momentum `I m` of a motion.
     #[inline]
     pub fn mul(&self, m: &Motion) -> Force {
+        if self.rigid {
+            // f = m v + ω × h, n = h × v + C ω.
+            let h = self.first_moment();
+            return Force {
+                lin: m.lin * self.a[(0, 0)] + m.ang.cross(&h),
+                ang: h.cross(&m.lin) + self.c * m.ang,
+            };
+        }
         Force {
             lin: self.a * m.lin + self.b * m.ang,
             ang: self.b.tr_mul(&m.lin) + self.c * m.ang,
@@ -361,6 +415,7 @@ impl Add for Inertia {
             a: self.a + o.a,
             b: self.b + o.b,
             c: self.c + o.c,
+            rigid: self.rigid && o.rigid,
         }
     }
 }
@@ -371,6 +426,7 @@ impl AddAssign for Inertia {
         self.a += o.a;
         self.b += o.b;
         self.c += o.c;
+        self.rigid &= o.rigid;
     }
 }
 
@@ -461,6 +517,21 @@ mod tests {
         let i = Inertia::from_matrix6(&a6);
         let want = x1.motion_matrix().transpose() * a6 * x1.motion_matrix();
         assert!((x1.inertia_inv(&i).to_matrix6() - want).abs().max() < 1e-12);
+    }
+
+    #[test]
+    fn rigid_paths_equal_the_general_ones() {
+        let com = Vector3::new(0.1, -0.2, 0.3);
+        let ic = Matrix3::new(2.0, 0.1, 0.0, 0.1, 3.0, -0.2, 0.0, -0.2, 4.0);
+        let rigid = Inertia::rigid(5.0, &com, &ic) + Inertia::rigid(1.5, &-com, &(ic * 0.3));
+        assert!(rigid.is_rigid());
+        let general = Inertia::from_matrix6(&rigid.to_matrix6());
+        assert!(!general.is_rigid());
+        let x = Xform::from_pose(&pose());
+        let (r, g) = (x.inertia_inv(&rigid), x.inertia_inv(&general));
+        assert!(r.is_rigid());
+        assert!((r.to_matrix6() - g.to_matrix6()).abs().max() < 1e-12);
+        assert!((rigid.mul(&m(0.3)).to_vector6() - general.mul(&m(0.3)).to_vector6()).norm() < 1e-12);
     }
 
     #[test]

@@ -132,3 +132,9 @@ fn a_valid_file_still_reads_under_the_same_memory_limit() {
     assert_eq!(code, Some(0), "{err}");
     assert!(err.contains("faces        1 (2 triangles"), "{err}");
 }
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_device_is_not_read() {
+    assert_one_line_error(Path::new("/dev/zero"), "is not a regular file");
+}

@@ -270,10 +270,7 @@ mod tests {
     use super::*;
     use crate::model::UvmsModel;
 
-    fn arm() -> Arm {
-        let m = UvmsModel::default();
-        Arm::new(&m.arm, &m.environment).unwrap()
-    }
+    use crate::arm::test_arm as arm;
 
     #[test]
     fn forward_dynamics_inverts_inverse_dynamics_underwater() {

@@ -229,14 +229,10 @@ impl Arm {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::UvmsModel;
     use rand::rngs::ChaCha8Rng;
     use rand::{RngExt, SeedableRng};
 
-    fn arm() -> Arm {
-        let m = UvmsModel::default();
-        Arm::new(&m.arm, &m.environment).unwrap()
-    }
+    use crate::arm::test_arm as arm;
 
     fn random_q(arm: &Arm, rng: &mut ChaCha8Rng) -> JointVector {
         JointVector::from_fn(|i, _| {

@@ -81,12 +81,8 @@ pub(crate) fn isometry(r: &Matrix3<f64>, p: &Vector3<f64>) -> Isometry3<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::UvmsModel;
 
-    fn arm() -> Arm {
-        let m = UvmsModel::default();
-        Arm::new(&m.arm, &m.environment).unwrap()
-    }
+    use crate::arm::test_arm as arm;
 
     #[test]
     fn jacobian_matches_finite_differences_of_fk() {

@@ -169,11 +169,7 @@ fn link(m: &model::LinkModel, env: &Environment, strips: usize) -> Link {
             let transverse = Matrix3::identity() - axis * axis.transpose();
             let a_trans = transverse * (c.added_mass_coefficient * rho * area * c.length);
             let a_rot = transverse * (c.added_mass_coefficient * rho * area * c.length.powi(3) / 12.0);
-            let at_center = Inertia {
-                a: a_trans,
-                b: Matrix3::zeros(),
-                c: a_rot,
-            };
+            let at_center = Inertia::from_blocks(a_trans, Matrix3::zeros(), a_rot);
             let added = Xform::translation(center).inertia_inv(&at_center);
             let volume = if c.volume_in_hull { 0.0 } else { area * c.length };
             let drag = Drag::Cylinder(Box::new(CylinderDrag::new(
@@ -212,4 +208,11 @@ fn link(m: &model::LinkModel, env: &Environment, strips: usize) -> Link {
         limits: m.joint_limits,
         torque_limit: m.torque_limit,
     }
+}
+
+/// The default model's arm (AUV300 + PUMA 560), for the arm's unit tests.
+#[cfg(test)]
+pub(crate) fn test_arm() -> Arm {
+    let m = crate::model::UvmsModel::default();
+    Arm::new(&m.arm, &m.environment).expect("the default arm is valid")
 }

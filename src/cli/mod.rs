@@ -5,14 +5,13 @@
 //! that writes files writes them under `--out DIR`, including `summary.json` and the resolved
 //! `config.toml`.
 
-pub mod arm;
-
 use crate::error::Result;
 use crate::output::OutDir;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 
+pub mod arm;
 pub mod check;
 pub mod info;
 pub mod plan;

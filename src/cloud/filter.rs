@@ -19,8 +19,8 @@
 //! filter (voxel order); the index-selecting filters also return the kept indices.
 
 use super::PointCloud;
+use super::knn::map_knn;
 use crate::error::{Error, Result};
-use crate::spatial::KdIndex;
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -141,8 +141,8 @@ pub struct CropResult {
 /// indices of the cloud's extent do not fit in 64 bits, or if a point is not finite.
 ///
 /// # Performance
-/// O(n log n): voxel keys are computed and sorted in parallel (rayon), then each run of equal
-/// keys is reduced.
+/// One pass over the points through a hash table (voxel key → running sums), then the occupied
+/// voxels are sorted by key: O(n + m log m) for m voxels.
 pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<VoxelResult> {
     let v = config.voxel_m;
     if !(v.is_finite() && v > 0.0) {
@@ -191,64 +191,80 @@ pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<Voxe
         ));
     }
     let (sy, sz) = (bits[2], bits[1] + bits[2]);
-    let mut keys: Vec<(u64, u32)> = cloud
-        .points
-        .par_iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let [x, y, z] = [0, 1, 2].map(|k| (cell(p[k]) - base[k]) as u64);
-            ((x << sz) | (y << sy) | z, i as u32)
-        })
-        .collect();
-    keys.par_sort_unstable();
-    let mut starts: Vec<usize> = Vec::with_capacity(keys.len() / 4 + 1);
-    for (i, w) in keys.windows(2).enumerate() {
-        if w[0].0 != w[1].0 {
-            starts.push(i + 1);
+    let key = |p: &Point3<f64>| {
+        let [x, y, z] = [0, 1, 2].map(|k| (cell(p[k]) - base[k]) as u64);
+        (x << sz) | (y << sy) | z
+    };
+    // One pass in point order (deterministic sums) through an open-addressing table from voxel
+    // key to accumulator.
+    #[derive(Clone)]
+    struct Acc {
+        key: u64,
+        sum: Vector3<f64>,
+        rgb: [u64; 3],
+        normal: Vector3<f64>,
+        count: u32,
+    }
+    let table_bits = (2 * cloud.len()).next_power_of_two().trailing_zeros().max(4);
+    let mask = (1usize << table_bits) - 1;
+    let mut slots = vec![u32::MAX; mask + 1];
+    let mut accs: Vec<Acc> = Vec::new();
+    for (i, p) in cloud.points.iter().enumerate() {
+        let k = key(p);
+        let mut s = (k.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - table_bits)) as usize;
+        let a = loop {
+            match slots[s] {
+                u32::MAX => {
+                    slots[s] = accs.len() as u32;
+                    accs.push(Acc {
+                        key: k,
+                        sum: Vector3::zeros(),
+                        rgb: [0; 3],
+                        normal: Vector3::zeros(),
+                        count: 0,
+                    });
+                    break accs.len() - 1;
+                }
+                id if accs[id as usize].key == k => break id as usize,
+                _ => s = (s + 1) & mask,
+            }
+        };
+        let acc = &mut accs[a];
+        acc.sum += p.coords;
+        acc.count += 1;
+        if let Some(c) = &cloud.colors {
+            for (t, &v) in acc.rgb.iter_mut().zip(&c[i]) {
+                *t += u64::from(v);
+            }
+        }
+        if let Some(n) = &cloud.normals {
+            acc.normal += n[i];
         }
     }
-    starts.insert(0, 0);
-    starts.push(keys.len());
-    type Voxel = (Point3<f64>, Option<[u8; 3]>, Option<Vector3<f64>>, u32);
-    let voxels: Vec<Voxel> = starts
-        .par_windows(2)
-        .map(|w| {
-            let members = &keys[w[0]..w[1]];
-            let n = members.len() as f64;
-            let mut sum = Vector3::zeros();
-            for &(_, i) in members {
-                sum += cloud.points[i as usize].coords;
-            }
-            let colour = cloud.colors.as_ref().map(|c| {
-                let mut s = [0u64; 3];
-                for &(_, i) in members {
-                    for (acc, &v) in s.iter_mut().zip(&c[i as usize]) {
-                        *acc += u64::from(v);
-                    }
-                }
-                s.map(|t| (t as f64 / n).round() as u8)
-            });
-            let normal = cloud.normals.as_ref().map(|nr| {
-                let s: Vector3<f64> = members.iter().map(|&(_, i)| nr[i as usize]).sum();
-                s.try_normalize(1e-12).unwrap_or(s / n)
-            });
-            (Point3::from(sum / n), colour, normal, members.len() as u32)
-        })
-        .collect();
+    accs.par_sort_unstable_by_key(|a| a.key);
     let out = PointCloud {
-        points: voxels.iter().map(|v| v.0).collect(),
-        colors: cloud
-            .colors
-            .as_ref()
-            .map(|_| voxels.iter().filter_map(|v| v.1).collect()),
-        normals: cloud
-            .normals
-            .as_ref()
-            .map(|_| voxels.iter().filter_map(|v| v.2).collect()),
+        points: accs
+            .iter()
+            .map(|a| Point3::from(a.sum / f64::from(a.count)))
+            .collect(),
+        colors: cloud.colors.as_ref().map(|_| {
+            accs.iter()
+                .map(|a| a.rgb.map(|t| (t as f64 / f64::from(a.count)).round() as u8))
+                .collect()
+        }),
+        normals: cloud.normals.as_ref().map(|_| {
+            accs.iter()
+                .map(|a| {
+                    a.normal
+                        .try_normalize(1e-12)
+                        .unwrap_or(a.normal / f64::from(a.count))
+                })
+                .collect()
+        }),
     };
     Ok(VoxelResult {
         cloud: out,
-        points_per_voxel: voxels.iter().map(|v| v.3).collect(),
+        points_per_voxel: accs.iter().map(|a| a.count).collect(),
     })
 }
 
@@ -262,7 +278,7 @@ pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<Voxe
 /// is not finite.
 ///
 /// # Performance
-/// One k-NN query per point on a kd-tree, in parallel (rayon).
+/// One exact k-NN query per point on a uniform grid ([`map_knn`]), in parallel (rayon).
 pub fn remove_statistical_outliers(cloud: &PointCloud, config: &OutlierConfig) -> Result<OutlierResult> {
     if config.neighbours == 0 {
         return Err(Error::input("neighbours", "must be at least 1"));
@@ -283,15 +299,10 @@ pub fn remove_statistical_outliers(cloud: &PointCloud, config: &OutlierConfig) -
             threshold_m: 0.0,
         });
     }
-    let index = KdIndex::new(&cloud.points)?;
     let k = config.neighbours.min(n - 1);
-    // The k + 1 nearest include the point itself at distance 0 (or an exact duplicate, also at
-    // 0): their distance sum is the sum over the k nearest others.
-    let mean_d: Vec<f64> = cloud
-        .points
-        .par_iter()
-        .map(|p| index.knn(p, k + 1).iter().map(|nb| nb.distance).sum::<f64>() / k as f64)
-        .collect();
+    let mean_d = map_knn(&cloud.points, k, |_, nb| {
+        nb.iter().map(|x| x.distance).sum::<f64>() / nb.len().max(1) as f64
+    })?;
     let mean = mean_d.iter().sum::<f64>() / n as f64;
     let var = mean_d.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
     let std = var.sqrt();

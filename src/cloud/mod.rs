@@ -4,6 +4,7 @@
 //! frame `S` unless said otherwise).
 
 pub mod filter;
+pub mod knn;
 pub mod normals;
 pub mod pca;
 

@@ -709,6 +709,9 @@ pub(crate) fn read(path: &Path, faces: Faces) -> Result<Parsed> {
     if meta.is_dir() {
         return Err(fail("is a directory, not a PLY file".into()));
     }
+    if !meta.is_file() {
+        return Err(fail("is not a regular file".into()));
+    }
     let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read: {e}")))?;
     parse(&bytes, faces).map_err(fail)
 }

@@ -316,16 +316,6 @@ mod tests {
             .sum()
     }
 
-    fn signed_volume(m: &TriangleMesh) -> f64 {
-        m.triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| m.vertices[i as usize].coords);
-                a.dot(&b.cross(&c)) / 6.0
-            })
-            .sum()
-    }
-
     #[test]
     fn closed_and_consistently_wound() {
         let m = bottle_mesh(&BottleConfig::default()).unwrap();
@@ -346,7 +336,7 @@ mod tests {
         // Positive signed volume = outward normals; it matches the solid of revolution of the
         // polygonal profile up to the chord error of the rings.
         let cfg = BottleConfig::default();
-        let v = signed_volume(&m);
+        let v = m.signed_volume();
         let n = cfg.segments as f64;
         let ring_factor = n * (2.0 * PI / n).sin() / (2.0 * PI); // polygon area / circle area
         let expected = profile_volume(&cfg.profile()) * ring_factor;

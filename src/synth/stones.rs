@@ -109,21 +109,11 @@ mod tests {
     use super::*;
     use crate::synth::random::stream;
 
-    fn signed_volume(m: &TriangleMesh) -> f64 {
-        m.triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| m.vertices[i as usize].coords);
-                a.dot(&b.cross(&c)) / 6.0
-            })
-            .sum()
-    }
-
     #[test]
     fn icosphere_is_closed_and_outward() {
         let m = icosphere(2);
         assert_eq!((m.vertices.len(), m.triangles.len()), (162, 320));
-        let v = signed_volume(&m);
+        let v = m.signed_volume();
         assert!(v > 0.95 * 4.0 / 3.0 * std::f64::consts::PI * 0.97 && v < 4.0 / 3.0 * std::f64::consts::PI);
         for t in 0..m.triangles.len() {
             let c = m.vertices[m.triangles[t][0] as usize];
@@ -135,7 +125,7 @@ mod tests {
     fn stone_is_flat_and_sized() {
         let up = Vector3::new(0.1, 0.0, -1.0).normalize();
         let (m, lo, hi) = stone(0.1, &up, &mut stream(1, 0, 0));
-        assert!(signed_volume(&m) > 0.0);
+        assert!(m.signed_volume() > 0.0);
         let (bl, bh) = crate::cloud::bbox(&m.vertices).unwrap();
         let longest = (bh - bl).norm();
         assert!(longest < 0.12 && longest > 0.05, "{longest}");

@@ -164,8 +164,13 @@ impl Thrusters {
 
     /// The body wrench of the thrusts now, `C` axes about its origin.
     pub fn wrench(&self) -> Force {
-        let w = &self.b * &self.thrust;
-        Force::from_vector6(&Vector6::from_column_slice(w.as_slice()))
+        let mut w = Vector6::zeros();
+        for (col, t) in self.b.column_iter().zip(self.thrust.iter()) {
+            for r in 0..6 {
+                w[r] += col[r] * t;
+            }
+        }
+        Force::from_vector6(&w)
     }
 }
 
