@@ -8,7 +8,7 @@
 //! Run: `cargo bench --bench plan`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use nalgebra::{Point3, Vector3};
+use nalgebra::Point3;
 use std::hint::black_box;
 use uvms::frames::Pose;
 use uvms::plan::fixtures::{Cylinder, ScanSpec};
@@ -17,12 +17,7 @@ use uvms::plan::project::{Facing, SmoothSurface};
 use uvms::plan::{ObjectAxes, ObjectInput, PlanConfig, PlanInput, plan};
 
 fn bench(c: &mut Criterion) {
-    let cylinder = Cylinder {
-        centre: Point3::new(0.0, 0.0, 1.0),
-        axis: Vector3::x(),
-        radius: 0.175,
-        half_length: 0.3,
-    };
+    let cylinder = Cylinder::bottle();
     let scan = cylinder.scan(&ScanSpec::default());
     let reference = cylinder.mesh(128, 8);
     let input = PlanInput {

@@ -106,7 +106,7 @@ fn round_trip(t: &Trajectory) -> Trajectory {
 }
 
 proptest! {
-    #![proptest_config(Config { cases: 10, rng_seed: RngSeed::Fixed(20240611), failure_persistence: None, ..Config::default() })]
+    #![proptest_config(Config { cases: 32, rng_seed: RngSeed::Fixed(20240611), failure_persistence: None, ..Config::default() })]
 
     #[test]
     fn planned_trajectories_keep_their_invariants(case in case()) {

@@ -45,7 +45,11 @@ pub struct CheckArgs {
     pub out: Option<PathBuf>,
 }
 
-fn init_mode(spec: &str) -> Result<InitMode> {
+/// The `--init` argument: `auto`, `identity` or a pose file.
+///
+/// # Errors
+/// [`Error::Input`] for anything else, or a bad pose file.
+pub fn init_mode(spec: &str) -> Result<InitMode> {
     match spec {
         "auto" => Ok(InitMode::Auto),
         "identity" => Ok(InitMode::Given(Pose::identity())),
@@ -173,6 +177,37 @@ pub fn check_text(r: &CheckResult) -> String {
     t
 }
 
+/// Writes what `uvms check` produces besides its summary and configuration: `pose.json`,
+/// `scan_surface.ply`, `reference_surface.ply`, `object.ply` and `aligned_reference.ply` (the
+/// model file `reference` moved by `t_scan_reference`). Returns a line for the report's text.
+///
+/// # Errors
+/// [`Error::Input`] if the model cannot be read again; [`Error::Failed`] if a write fails.
+pub fn write_check_products(out: &OutDir, result: &CheckResult, reference: &Path) -> Result<String> {
+    let pose = result.registration.t_scan_reference;
+    out.write_json("pose.json", &json!({ "t_scan_reference": pose_to_rows(&pose) }))?;
+    out.write_with("scan_surface.ply", |w| write_mesh(w, &result.scan_surface))?;
+    out.write_with("reference_surface.ply", |w| {
+        write_mesh(w, &result.reference_surface)
+    })?;
+    let mut object = result.object.clone();
+    object.normals = None;
+    out.write_with("object.ply", |w| write_cloud(w, &object))?;
+    let aligned = crate::io::ply::read_ply(reference)?;
+    let mut cloud = aligned.cloud;
+    cloud.points.iter_mut().for_each(|p| *p = pose * *p);
+    if let Some(n) = cloud.normals.as_mut() {
+        n.iter_mut().for_each(|v| *v = pose * *v);
+    }
+    out.write_with("aligned_reference.ply", |w| {
+        crate::io::ply::write_ply(w, &cloud, &aligned.triangles)
+    })?;
+    Ok(format!(
+        "wrote        aligned_reference.ply, reference_surface.ply, scan_surface.ply, object.ply, pose.json in {}\n",
+        out.path().display()
+    ))
+}
+
 /// Runs `uvms check`.
 ///
 /// # Errors
@@ -214,30 +249,8 @@ pub fn run(args: &CheckArgs, _ctx: &Ctx) -> Result<Report> {
     }
     let mut text = check_text(&result);
     if let Some(out) = &out {
-        let pose = result.registration.t_scan_reference;
         out.write_toml("config.toml", &cfg)?;
-        out.write_json("pose.json", &json!({ "t_scan_reference": pose_to_rows(&pose) }))?;
-        out.write_with("scan_surface.ply", |w| write_mesh(w, &result.scan_surface))?;
-        out.write_with("reference_surface.ply", |w| {
-            write_mesh(w, &result.reference_surface)
-        })?;
-        let mut object = result.object.clone();
-        object.normals = None;
-        out.write_with("object.ply", |w| write_cloud(w, &object))?;
-        let aligned = crate::io::ply::read_ply(&args.reference)?;
-        let mut cloud = aligned.cloud;
-        cloud.points.iter_mut().for_each(|p| *p = pose * *p);
-        if let Some(n) = cloud.normals.as_mut() {
-            n.iter_mut().for_each(|v| *v = pose * *v);
-        }
-        out.write_with("aligned_reference.ply", |w| {
-            crate::io::ply::write_ply(w, &cloud, &aligned.triangles)
-        })?;
-        let _ = writeln!(
-            text,
-            "wrote        aligned_reference.ply, reference_surface.ply, scan_surface.ply, object.ply, pose.json in {}",
-            out.path().display()
-        );
+        text += &write_check_products(out, &result, &args.reference)?;
     }
     Ok(Report { summary, text, out })
 }

@@ -14,6 +14,7 @@ use std::io::IsTerminal;
 pub mod arm;
 pub mod check;
 pub mod info;
+pub mod plan;
 pub mod segment;
 pub mod synth;
 
@@ -49,6 +50,8 @@ pub enum Command {
     Check(check::CheckArgs),
     /// A synthetic underwater stereo scan with its ground truth.
     Synth(synth::SynthArgs),
+    /// Segment, check and plan: a tool trajectory on the scanned surface (CSV, PLY).
+    Plan(plan::PlanArgs),
 }
 
 /// What a command produced.
@@ -103,6 +106,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Segment(args) => segment::run(args, &ctx)?,
         Command::Check(args) => check::run(args, &ctx)?,
         Command::Synth(args) => synth::run(args, &ctx)?,
+        Command::Plan(args) => plan::run(args, &ctx)?,
     };
     if let Some(out) = &report.out {
         out.write_json("summary.json", &report.summary)?;

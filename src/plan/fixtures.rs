@@ -10,6 +10,7 @@
 //!
 //! Frames: everything is in the scan frame `S` of the caller; metres.
 
+use super::perpendicular;
 use crate::mesh::TriangleMesh;
 use nalgebra::{Point3, Vector3};
 use rand::rngs::ChaCha8Rng;
@@ -65,15 +66,21 @@ pub struct Cylinder {
 }
 
 impl Cylinder {
+    /// The seed's bottle body: a cylinder 0.35 m in diameter and 0.6 m long, its axis along the
+    /// scan frame's x, 1 m in front of a camera at the origin looking along z.
+    pub fn bottle() -> Cylinder {
+        Cylinder {
+            centre: Point3::new(0.0, 0.0, 1.0),
+            axis: Vector3::x(),
+            radius: 0.175,
+            half_length: 0.3,
+        }
+    }
+
     /// Two unit vectors completing `axis` to a right-handed orthonormal basis.
     fn basis(&self) -> (Vector3<f64>, Vector3<f64>) {
         let a = self.axis.normalize();
-        let seed = if a.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        };
-        let e1 = (seed - a * a.dot(&seed)).normalize();
+        let e1 = perpendicular(&a, &Vector3::zeros());
         (e1, a.cross(&e1))
     }
 
@@ -160,12 +167,7 @@ pub struct RippledPlane {
 impl RippledPlane {
     fn basis(&self) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
         let n = self.normal.normalize();
-        let seed = if n.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        };
-        let ex = (seed - n * n.dot(&seed)).normalize();
+        let ex = perpendicular(&n, &Vector3::zeros());
         (ex, n.cross(&ex), n)
     }
 
@@ -330,12 +332,7 @@ mod tests {
     use super::*;
 
     fn bottle() -> Cylinder {
-        Cylinder {
-            centre: Point3::new(0.0, 0.0, 1.0),
-            axis: Vector3::x(),
-            radius: 0.175,
-            half_length: 0.3,
-        }
+        Cylinder::bottle()
     }
 
     #[test]

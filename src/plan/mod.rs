@@ -9,9 +9,11 @@
 //! 1. [`patterns`]: a ring, raster, line or polyline placed relative to the aligned reference's
 //!    principal axes ([`ObjectAxes`]) and the camera's viewpoint;
 //! 2. [`project`]: ray casting onto the scan, falling back to the aligned reference mesh in the
-//!    scan's holes (flagged), with smoothed normals and positions;
-//! 3. [`timing::resample`]: uniform spacing at the tool speed;
-//! 4. [`tool_frame`]: `z_G = -n`, `x_G` = path tangent, optional service angle;
+//!    scan's holes (flagged, and moved to the scan's level at the hole's borders), with smoothed
+//!    normals and positions;
+//! 3. [`timing::resample`]: a uniform straight-line spacing at the tool speed;
+//! 4. [`tool_frame`]: `z_G = -n` (normals smoothed again along the path), `x_G` = path tangent,
+//!    optional service angle;
 //! 5. [`timing::schedule`]: the orientation-rate limit, approach, dwell and retreat;
 //! 6. the frame change from the scan frame `S` to the world `W`
 //!    (`t_world_scan = t_world_vehicle · t_vehicle_camera`, [`ScanFrames`]).
@@ -39,6 +41,19 @@ use project::{Facing, ProjectionConfig, Projector, SmoothSurface};
 use serde::{Deserialize, Serialize};
 use timing::TimingConfig;
 use tool_frame::ToolConfig;
+
+/// A unit vector perpendicular to the unit vector `a`, as close to `hint` as possible (any
+/// perpendicular when `hint` is parallel to `a`).
+pub fn perpendicular(a: &Vector3<f64>, hint: &Vector3<f64>) -> Vector3<f64> {
+    (hint - a * a.dot(hint)).try_normalize(1e-9).unwrap_or_else(|| {
+        let seed = if a.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        (seed - a * a.dot(&seed)).normalize()
+    })
+}
 
 /// The planner's configuration (`[plan]` of a pipeline file, or `uvms plan --config`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -145,19 +160,26 @@ impl ObjectAxes {
         {
             axis = -axis;
         }
+        Ok(Self::with_axis(mesh, Point3::from(centre), axis))
+    }
+
+    /// The extent of a mesh about a given centre and axis (normalised here; any principal-axes
+    /// estimate, e.g. the registration's `reference_axes`).
+    pub fn with_axis(mesh: &TriangleMesh, centre: Point3<f64>, axis: Vector3<f64>) -> ObjectAxes {
+        let axis = axis.try_normalize(1e-12).unwrap_or(Vector3::x());
         let (mut half_length, mut radius) = (0.0f64, 0.0f64);
         for v in &mesh.vertices {
-            let d = v.coords - centre;
+            let d = v - centre;
             let along = d.dot(&axis);
             half_length = half_length.max(along.abs());
             radius = radius.max((d - axis * along).norm());
         }
-        Ok(ObjectAxes {
-            centre: Point3::from(centre),
+        ObjectAxes {
+            centre,
             axis,
             half_length,
             radius,
-        })
+        }
     }
 }
 

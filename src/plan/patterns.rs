@@ -7,29 +7,30 @@
 //!   it spans the arc the camera saw (the scanned arc around the camera-facing direction, less
 //!   an edge margin); `arc_deg` asks for a given arc, centred on the camera-facing direction. A
 //!   band of `width_m` is covered by parallel passes at most `spacing_m` apart, boustrophedon,
-//!   joined by short moves along the axis on the surface.
+//!   joined by U-turns on the surface (radius half the pass spacing).
 //! - **raster**: boustrophedon coverage of a `width_m × height_m` region of the surface, seen
 //!   from the camera: rays parallel to the line of sight through the object's centre; rows run
 //!   along (or across) the object's axis. Lengths are measured on the surface: rows are placed at
-//!   most `spacing_m` apart along a transect through the region's centre, and each row covers
-//!   `width_m` of arc length about that transect.
+//!   most `spacing_m` apart along a transect through the region's centre, each row covers
+//!   `width_m` of arc length about that transect, and rows are joined by U-turns.
 //! - **line** (soil sampling, the seed's first case): a straight path on the seabed beside the
 //!   object, parallel to its axis (turned by `heading_deg`), at immersion depth `depth_m` below the
 //!   surface; rays along the seabed plane's normal onto the triangulated seabed when there is one
-//!   (the plane where it has holes), or onto the plane itself.
+//!   (the plane where it has holes), or onto the plane itself. Without an object (a sediment
+//!   patch) it is centred where the optical axis meets the seabed and runs along the image's x.
 //! - **polyline**: points read from a CSV file (`x_m,y_m,z_m[,force_n]`) in the reference model's
-//!   frame (or the scan's or the world's), densified, and cast onto the scan along the reference
-//!   surface's normal at the closest point.
+//!   frame (or the scan's or the world's), corners rounded (`corner_radius_m`), densified, and
+//!   cast onto the scan along the reference surface's normal.
 //!
 //! A band that extends beyond the scanned surface (its end would lie on the reference or
 //! nowhere) is an error unless `projection.clip` trims it to the scan. Frame: the scan frame `S`;
 //! metres, degrees in the configuration.
 
 use super::project::{
-    Facing, Guide, Line, PathPoint, ProjectionConfig, Projector, SmoothSurface, bridge_holes, non_negative,
-    positive, project_all,
+    Facing, Guide, Line, PathPoint, ProjectionConfig, Projector, SmoothSurface, bounded_count, bridge_holes,
+    non_negative, positive, project_all,
 };
-use super::{ObjectAxes, ObjectInput, PlanInput};
+use super::{ObjectAxes, ObjectInput, PlanInput, perpendicular};
 use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
@@ -251,6 +252,8 @@ pub fn validate(
     ] {
         positive(what, v)?;
     }
+    bounded_count("ring.width_m", ring.width_m, ring.spacing_m)?;
+    bounded_count("raster.height_m", raster.height_m, raster.spacing_m)?;
     if !(ring.arc_deg.is_finite() && (0.0..=360.0).contains(&ring.arc_deg)) {
         return Err(Error::input("ring.arc_deg", "must be between 0 and 360"));
     }
@@ -331,16 +334,16 @@ fn passes(width: f64, spacing: f64) -> (usize, f64) {
     (n, width / (n - 1) as f64)
 }
 
-/// A unit vector perpendicular to `a` (unit), as close to `hint` as possible.
-fn perpendicular(a: &Vector3<f64>, hint: &Vector3<f64>) -> Vector3<f64> {
-    (hint - a * a.dot(hint)).try_normalize(1e-9).unwrap_or_else(|| {
-        let seed = if a.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        };
-        (seed - a * a.dot(&seed)).normalize()
-    })
+/// Why a line's scanned range falls short of the wanted range, side by side.
+fn why(line: &Line, want: (f64, f64), have: (f64, f64)) -> String {
+    let mut out = Vec::new();
+    if want.0 < have.0 {
+        out.push(format!("at the start {}", line.stops.0.describe()));
+    }
+    if want.1 > have.1 {
+        out.push(format!("at the end {}", line.stops.1.describe()));
+    }
+    out.join(", ")
 }
 
 fn band_error(what: String) -> Error {
@@ -519,10 +522,11 @@ pub fn ring(ctx: &Context, cfg: &RingConfig) -> Result<PatternPath> {
         };
         let ((lo, hi), c) = fit((want_lo, want_hi), seen, clip, || {
             format!(
-                "the ring's arc of {:.1}° exceeds the arc scanned at station {s:.3} m ({:.1}° to {:.1}° about the camera-facing direction)",
+                "the ring's arc of {:.1}° exceeds the arc scanned at station {s:.3} m ({:.1}° to {:.1}° about the camera-facing direction; {})",
                 cfg.arc_deg,
                 seen.0.to_degrees(),
-                seen.1.to_degrees()
+                seen.1.to_degrees(),
+                why(&line, (-half, half), (seen.0, seen.1))
             )
         })?;
         clipped |= c;
@@ -602,8 +606,15 @@ pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
         clip,
         || {
             format!(
-                "the raster's height of {:.3} m exceeds the scanned surface ({:.3} m to {:.3} m about its centre)",
-                cfg.height_m, transect.scanned.0, transect.scanned.1
+                "the raster's height of {:.3} m exceeds the scanned surface ({:.3} m to {:.3} m about its centre; {})",
+                cfg.height_m,
+                transect.scanned.0,
+                transect.scanned.1,
+                why(
+                    &transect,
+                    (-cfg.height_m / 2.0, cfg.height_m / 2.0),
+                    transect.scanned
+                )
             )
         },
     )?;
@@ -619,8 +630,11 @@ pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
             let row = walk_line(&tu, centre, cfg.width_m / 2.0);
             let ((a, b), cl) = fit((-cfg.width_m / 2.0, cfg.width_m / 2.0), row.scanned, clip, || {
                 format!(
-                    "row {j} of the raster ({:.3} m long) exceeds the scanned surface ({:.3} m to {:.3} m about its centre)",
-                    cfg.width_m, row.scanned.0, row.scanned.1
+                    "row {j} of the raster ({:.3} m long) exceeds the scanned surface ({:.3} m to {:.3} m about its centre; {})",
+                    cfg.width_m,
+                    row.scanned.0,
+                    row.scanned.1,
+                    why(&row, (-cfg.width_m / 2.0, cfg.width_m / 2.0), row.scanned)
                 )
             })?;
             let range = (row.at(a).tau, row.at(b).tau);
@@ -783,6 +797,7 @@ pub fn line(ctx: &Context, cfg: &LineConfig) -> Result<PatternPath> {
             config,
         },
     };
+    bounded_count("line.length_m", cfg.length_m, config.step_m)?;
     let steps = (cfg.length_m / config.step_m).ceil().max(1.0) as usize;
     let taus: Vec<f64> = (0..=steps)
         .map(|i| -cfg.length_m / 2.0 + cfg.length_m * i as f64 / steps as f64)
@@ -969,6 +984,8 @@ pub fn polyline(ctx: &Context, cfg: &PolylineConfig) -> Result<PatternPath> {
         .map(|(p, f)| (to_scan * p, f.unwrap_or(cfg.force_n)))
         .collect();
     let step = pj.config.step_m;
+    let total: f64 = pts.windows(2).map(|w| (w[1].0 - w[0].0).norm()).sum();
+    bounded_count(&file.display().to_string(), total, step)?;
     let mut guides = Vec::new();
     let mut tau = 0.0;
     let mut previous: Option<Point3<f64>> = None;

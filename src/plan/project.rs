@@ -56,12 +56,12 @@ pub struct ProjectionConfig {
 impl Default for ProjectionConfig {
     fn default() -> Self {
         ProjectionConfig {
-            step_m: 0.0005,
+            step_m: 0.001,
             smoothing_radius_m: 0.015,
             smooth_positions: true,
             tolerance_m: 0.005,
             clip: false,
-            max_hole_m: 0.05,
+            max_hole_m: 0.1,
         }
     }
 }
@@ -76,6 +76,9 @@ impl ProjectionConfig {
         positive("projection.smoothing_radius_m", self.smoothing_radius_m)?;
         positive("projection.tolerance_m", self.tolerance_m)?;
         non_negative("projection.max_hole_m", self.max_hole_m)?;
+        if self.step_m < 1e-5 {
+            return Err(Error::input("projection.step_m", "must be at least 1e-5 m"));
+        }
         if self.smoothing_radius_m < 2.0 * self.step_m {
             return Err(Error::input(
                 "projection.smoothing_radius_m",
@@ -83,6 +86,27 @@ impl ProjectionConfig {
             ));
         }
         Ok(())
+    }
+}
+
+/// The most samples, guide rays or passes one trajectory may need: beyond it the settings are
+/// taken as a mistake (a microscopic step, a band kilometres wide) rather than a run that would
+/// exhaust the memory.
+pub const MAX_COUNT: f64 = 1e7;
+
+/// `Ok` if `numerator / denominator` (a count of steps) is at most [`MAX_COUNT`], else an input
+/// error naming `what`.
+pub(crate) fn bounded_count(what: &str, numerator: f64, denominator: f64) -> Result<()> {
+    if numerator / denominator <= MAX_COUNT {
+        Ok(())
+    } else {
+        Err(Error::input(
+            what,
+            format!(
+                "would need {:.3e} steps (at most {MAX_COUNT:.0e}); use a coarser step or a smaller extent",
+                numerator / denominator
+            ),
+        ))
     }
 }
 
@@ -274,6 +298,35 @@ pub struct Projector<'a> {
     pub config: &'a ProjectionConfig,
 }
 
+/// Why a walk stopped.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Stop {
+    /// It reached its target arc length on the scanned surface.
+    Reached,
+    /// The end of its parameter range.
+    #[default]
+    Range,
+    /// A ray missed both the scan and the reference (the object's edge).
+    Miss,
+    /// Neighbouring hits jumped apart (an occluding contour or a step).
+    Jump,
+    /// The scan had a hole longer than `max_hole_m` (the reference went on).
+    Hole,
+}
+
+impl Stop {
+    /// What the stop means, for messages.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Stop::Reached => "the requested length was reached",
+            Stop::Range => "the search range ended",
+            Stop::Miss => "the object ends there",
+            Stop::Jump => "the surface steps or folds away there",
+            Stop::Hole => "the scan has a hole longer than projection.max_hole_m there",
+        }
+    }
+}
+
 /// The result of walking a line of the pattern from its centre outwards.
 #[derive(Debug, Clone, Default)]
 pub struct Walk {
@@ -283,6 +336,8 @@ pub struct Walk {
     pub arc: Vec<f64>,
     /// Index of the outermost point on the primary (scanned) surface.
     pub last_primary: Option<usize>,
+    /// Why the walk stopped.
+    pub stop: Stop,
 }
 
 impl Walk {
@@ -343,6 +398,7 @@ impl Projector<'_> {
             points: vec![centre],
             arc: vec![0.0],
             last_primary: (!centre.fallback).then_some(0),
+            stop: Stop::Range,
         };
         let span = tau_end - centre.tau;
         let steps = ((span.abs() * metric / self.config.step_m).ceil() as usize).max(1);
@@ -350,11 +406,13 @@ impl Projector<'_> {
         for i in 1..=steps {
             let tau = centre.tau + span * i as f64 / steps as f64;
             let Some(p) = self.cast(&family(tau), tau, centre.force) else {
+                w.stop = Stop::Miss;
                 break;
             };
             let Some(prev) = w.points.last() else { break };
             let d = (p.point - prev.point).norm();
             if d > jump {
+                w.stop = Stop::Jump;
                 break;
             }
             let arc = w.arc[w.arc.len() - 1] + d;
@@ -363,9 +421,11 @@ impl Projector<'_> {
             if !p.fallback {
                 w.last_primary = Some(w.points.len() - 1);
                 if target.is_some_and(|t| arc >= t) {
+                    w.stop = Stop::Reached;
                     break;
                 }
             } else if arc - w.scanned_arc() > self.config.max_hole_m {
+                w.stop = Stop::Hole;
                 break;
             }
         }
@@ -382,6 +442,8 @@ pub struct Line {
     pub arc: Vec<f64>,
     /// Arc range covered by the scanned surface (outermost primary hits on either side).
     pub scanned: (f64, f64),
+    /// Why the walks towards smaller and larger parameters stopped.
+    pub stops: (Stop, Stop),
 }
 
 impl Line {
@@ -396,6 +458,7 @@ impl Line {
             points,
             arc,
             scanned: (-back.scanned_arc(), ahead.scanned_arc()),
+            stops: (back.stop, ahead.stop),
         }
     }
 
@@ -521,12 +584,7 @@ mod tests {
     use crate::plan::fixtures::{Cylinder, ScanSpec, Truth, with_hole};
 
     fn bottle() -> Cylinder {
-        Cylinder {
-            centre: Point3::new(0.0, 0.0, 1.0),
-            axis: Vector3::x(),
-            radius: 0.175,
-            half_length: 0.3,
-        }
+        Cylinder::bottle()
     }
 
     #[test]

@@ -1,8 +1,9 @@
 //! Timing: uniform resampling at the tool speed, the orientation-rate limit, and the approach,
 //! dwell and retreat segments.
 //!
-//! The projected path is resampled at uniform arc length, with the spacing nearest to
-//! `speed · sample_period` that divides the path's length, and timed at exactly the tool speed.
+//! The projected path is resampled at a uniform straight-line spacing between consecutive
+//! samples, the one nearest to `speed · sample_period` that ends on the path's end, and timed at
+//! exactly the tool speed.
 //! Where consecutive tool frames differ by more than `max_rate · Δt`, that step is stretched in
 //! time to `angle / max_rate` (the tool slows down; spacing stays uniform). Before the path, the
 //! tool approaches the first point along `k` from a stand-off at the (lower) approach speed, so
@@ -11,7 +12,7 @@
 //! seed's advice for critical operations); after the last point it retreats along `-k`. No force
 //! is demanded during the approach and the retreat.
 
-use super::project::{PathPoint, non_negative, positive};
+use super::project::{MAX_COUNT, PathPoint, bounded_count, non_negative, positive};
 use crate::error::{Error, Result};
 use crate::trajectory::{Phase, Sample};
 use nalgebra::UnitQuaternion;
@@ -59,7 +60,26 @@ impl TimingConfig {
         non_negative("timing.standoff_m", self.standoff_m)?;
         positive("timing.approach_speed_m_s", self.approach_speed_m_s)?;
         non_negative("timing.dwell_s", self.dwell_s)?;
-        positive("timing.retreat_speed_m_s", self.retreat_speed_m_s)
+        positive("timing.retreat_speed_m_s", self.retreat_speed_m_s)?;
+        let period = self.sample_period_s;
+        bounded_count(
+            "timing.standoff_m",
+            self.standoff_m,
+            self.approach_speed_m_s * period,
+        )?;
+        bounded_count(
+            "timing.standoff_m",
+            self.standoff_m,
+            self.retreat_speed_m_s * period,
+        )?;
+        bounded_count("timing.dwell_s", self.dwell_s, period)?;
+        if self.spacing() < 1e-6 {
+            return Err(Error::input(
+                "timing.sample_period_s",
+                "speed × sample period must be at least 1 µm",
+            ));
+        }
+        Ok(())
     }
 
     /// The nominal distance between samples in contact, metres.
@@ -68,48 +88,141 @@ impl TimingConfig {
     }
 }
 
-/// Resamples a path at uniform arc length. Returns the samples (both ends kept) and the spacing
-/// used: the length divided by the whole number of intervals nearest to `length / spacing`.
+/// Resamples a path at a uniform straight-line (chord) spacing, so that the tool moves exactly
+/// the same distance in every sample period. Each sample is the first point of the path, going
+/// forward, at distance `h` from the previous one; `h` is the spacing nearest to `spacing` that
+/// makes a whole number of steps end on the path's last point. Returns the samples (both ends
+/// kept) and `h`.
 ///
 /// # Errors
 /// [`Error::Failed`] if the path is shorter than half a spacing.
 pub fn resample(points: &[PathPoint], spacing: f64) -> Result<(Vec<PathPoint>, f64)> {
-    let mut arc = Vec::with_capacity(points.len());
-    let mut s = 0.0;
-    for (i, p) in points.iter().enumerate() {
-        if i > 0 {
-            s += (p.point - points[i - 1].point).norm();
-        }
-        arc.push(s);
-    }
-    if points.is_empty() || s < spacing / 2.0 {
+    let length: f64 = points.windows(2).map(|w| (w[1].point - w[0].point).norm()).sum();
+    if points.len() < 2 || length < spacing / 2.0 {
         return Err(Error::failed(
             "plan",
             format!(
                 "the projected path is {:.1} mm long, too short to sample at {:.1} mm",
-                s * 1e3,
+                length * 1e3,
                 spacing * 1e3
             ),
         ));
     }
-    let n = ((s / spacing).round() as usize).max(1);
-    let h = s / n as f64;
-    let mut out = Vec::with_capacity(n + 1);
-    let mut j = 0;
-    for k in 0..=n {
-        let target = if k == n { s } else { k as f64 * h };
-        while j + 2 < arc.len() && arc[j + 1] < target {
-            j += 1;
-        }
-        let (a0, a1) = (arc[j], arc[(j + 1).min(arc.len() - 1)]);
-        let u = if a1 > a0 {
-            ((target - a0) / (a1 - a0)).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        out.push(points[j].lerp(&points[(j + 1).min(points.len() - 1)], u));
+    if length / spacing > MAX_COUNT {
+        return Err(Error::failed(
+            "plan",
+            format!(
+                "the path ({length:.3} m) would need more than {MAX_COUNT:.0e} samples at {spacing} m; raise timing.sample_period_s"
+            ),
+        ));
     }
-    Ok((out, h))
+    let n = ((length / spacing).round() as usize).max(1);
+    // Where the n-th step ends, as arc length along the path; past the end when the path runs
+    // out first (then by the steps still missing). Increasing in h; solved for the path's length
+    // by regula falsi (Illinois), which converges in a handful of walks.
+    let mut cum = Vec::with_capacity(points.len());
+    let mut acc = 0.0;
+    for (i, p) in points.iter().enumerate() {
+        if i > 0 {
+            acc += (p.point - points[i - 1].point).norm();
+        }
+        cum.push(acc);
+    }
+    let reach = |h: f64| {
+        let w = chord_walk(points, h, n + 1);
+        match w.get(n) {
+            Some(&(j, u)) => cum[j] + u * (cum[j + 1] - cum[j]),
+            None => length + (n + 1 - w.len()) as f64 * h,
+        }
+    };
+    let (mut lo, mut hi) = (0.5 * length / n as f64, 1.5 * length / n as f64);
+    while reach(lo) > length && lo > 1e-12 {
+        lo *= 0.5;
+    }
+    while reach(hi) < length && hi < length {
+        hi *= 2.0;
+    }
+    let (mut f_lo, mut f_hi) = (reach(lo) - length, reach(hi) - length);
+    let mut side = 0;
+    for _ in 0..200 {
+        if hi - lo <= 1e-15 * hi || f_lo == 0.0 {
+            break;
+        }
+        let mid = if f_hi > f_lo {
+            lo - f_lo * (hi - lo) / (f_hi - f_lo)
+        } else {
+            0.5 * (lo + hi)
+        };
+        let mid = if mid > lo && mid < hi {
+            mid
+        } else {
+            0.5 * (lo + hi)
+        };
+        let f = reach(mid) - length;
+        if f.abs() <= 1e-13 * length {
+            lo = mid;
+            break;
+        }
+        if f < 0.0 {
+            (lo, f_lo) = (mid, f);
+            if side == -1 {
+                f_hi *= 0.5;
+            }
+            side = -1;
+        } else {
+            (hi, f_hi) = (mid, f);
+            if side == 1 {
+                f_lo *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    let steps = chord_walk(points, lo, n + 1);
+    let mut out: Vec<PathPoint> = steps
+        .iter()
+        .map(|&(j, u)| points[j].lerp(&points[j + 1], u))
+        .collect();
+    // The last step ends within the solver's precision of the path's end: put it there.
+    if let (Some(last), Some(end)) = (out.last_mut(), points.last()) {
+        *last = *end;
+    }
+    Ok((out, lo))
+}
+
+/// Samples at chord distance `h` along the polyline, at most `max` of them, as (segment index,
+/// fraction along it). The first sample is the polyline's start.
+fn chord_walk(points: &[PathPoint], h: f64, max: usize) -> Vec<(usize, f64)> {
+    let mut out = vec![(0usize, 0.0)];
+    let (mut j, mut t) = (0usize, 0.0);
+    let mut prev = points[0].point;
+    let h2 = h * h;
+    'samples: while out.len() < max {
+        // Each segment starts inside the sphere of radius h about `prev`: the exit is the
+        // larger root of |a + s d - prev|² = h².
+        while j + 1 < points.len() {
+            let (a, b) = (points[j].point, points[j + 1].point);
+            let d = b - a;
+            let f = a - prev;
+            let qa = d.norm_squared();
+            if qa > 0.0 {
+                let qb = 2.0 * f.dot(&d);
+                let disc = qb * qb - 4.0 * qa * (f.norm_squared() - h2);
+                if disc >= 0.0 {
+                    let r = (-qb + disc.sqrt()) / (2.0 * qa);
+                    if r >= t && r <= 1.0 {
+                        t = r;
+                        prev = a + d * r;
+                        out.push((j, r));
+                        continue 'samples;
+                    }
+                }
+            }
+            j += 1;
+            t = 0.0;
+        }
+        break;
+    }
+    out
 }
 
 /// Facts about the schedule for the summary.
@@ -220,16 +333,17 @@ mod tests {
 
     #[test]
     fn resample_is_uniform_along_a_polyline() {
-        // An L-shaped path 0.3 + 0.1 m long with uneven input spacing.
+        // An L-shaped path 0.3 + 0.1005 m long with uneven input spacing.
         let mut pts: Vec<PathPoint> = [0.0, 0.01, 0.1, 0.25, 0.3].iter().map(|&x| pp(x, 0.0)).collect();
-        pts.extend([0.03, 0.1].iter().map(|&y| pp(0.3, y)));
+        pts.extend([0.03, 0.1005].iter().map(|&y| pp(0.3, y)));
         let (out, h) = resample(&pts, 0.0011).unwrap();
-        assert_eq!(out.len(), 365); // 0.4 / 0.0011 = 363.6 → 364 intervals
-        assert!((h - 0.4 / 364.0).abs() < 1e-15);
+        assert_eq!(out.len(), 365); // 0.4005 / 0.0011 = 364.1 → 364 intervals
+        // The step across the corner (no sample falls on it) spans more path than its chord h:
+        // 363 h + (up to √2 h) = 0.4005.
+        assert!(h < 0.4005 / 364.0 && h > 0.4005 / (363.0 + 2f64.sqrt()), "{h}");
         for w in out.windows(2) {
             let d = (w[1].point - w[0].point).norm();
-            // Chords across the corner are shorter than the arc; elsewhere exact.
-            assert!(d <= h + 1e-12 && d > h * 0.7, "{d}");
+            assert!((d - h).abs() < 1e-12, "{d} vs {h}");
         }
         assert_eq!(out[0].point, pts[0].point);
         assert_eq!(out[out.len() - 1].point, pts[pts.len() - 1].point);

@@ -66,14 +66,7 @@ pub fn tool_frame(
     let in_plane = |v: &Vector3<f64>| (v - z * z.dot(v)).try_normalize(1e-9);
     let x = in_plane(tangent)
         .or_else(|| previous_x.and_then(in_plane))
-        .unwrap_or_else(|| {
-            let seed = if z.x.abs() < 0.9 {
-                Vector3::x()
-            } else {
-                Vector3::y()
-            };
-            (seed - z * z.dot(&seed)).normalize()
-        });
+        .unwrap_or_else(|| super::perpendicular(&z, &Vector3::zeros()));
     let y = z.cross(&x);
     let frame = Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z]));
     frame * Rotation3::from_axis_angle(&Vector3::y_axis(), service_angle)

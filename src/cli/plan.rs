@@ -1,0 +1,257 @@
+//! `uvms plan SCAN.ply --reference MODEL.ply [--pattern ring|raster|line|FILE.csv]
+//! [--ground-truth TRUTH.json] [--up X,Y,Z] [--init auto|identity|FILE.json] [--config F]
+//! --out DIR`: segment + check + plan in one go. Writes what `uvms check` writes, plus
+//! `trajectory.csv` (the trajectory in the world frame `W`, the simulation's input),
+//! `trajectory.ply` (the path with tool axes, to view over `scan_surface.ply`), `summary.json`
+//! and the resolved `config.toml` (`[perception]` and `[plan]` tables).
+//!
+//! Without `--reference`, only the line pattern can be planned (soil sampling on a patch of
+//! sediment): the scan is cleaned, the seabed plane found and its inliers triangulated.
+
+use super::check::{check_summary, check_text, init_mode, write_check_products};
+use super::segment::{load_reference, parse_vector3, segmentation_summary};
+use super::{Ctx, Report};
+use crate::error::{Error, Result};
+use crate::frames::read_pose_file;
+use crate::io::ply::read_cloud;
+use crate::mesh::TriangleMesh;
+use crate::output::OutDir;
+use crate::perception::{CheckOptions, PerceptionConfig, check, clean};
+use crate::plan::patterns::PatternKind;
+use crate::plan::{ObjectAxes, ObjectInput, PlanConfig, PlanInput, PlanReport, plan};
+use crate::segment::seabed::find_seabed;
+use crate::triangulate::triangulate_view;
+use nalgebra::{Point3, Vector3};
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `uvms plan`.
+#[derive(Debug, clap::Args)]
+pub struct PlanArgs {
+    /// The scan (PLY, scan frame `S`).
+    pub scan: PathBuf,
+    /// The reference model (PLY mesh, or PLY point cloud); optional for `--pattern line`.
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// The pattern: `ring`, `raster`, `line`, or a CSV polyline file (`x_m,y_m,z_m[,force_n]`,
+    /// in the reference model's frame by default). Overrides `plan.pattern` of the configuration.
+    #[arg(long)]
+    pub pattern: Option<String>,
+    /// Ground truth for the alignment check: a JSON file with `"t_scan_reference"`.
+    #[arg(long)]
+    pub ground_truth: Option<PathBuf>,
+    /// Prior on the seabed normal in the scan frame, e.g. `0,-0.7,-0.7`.
+    #[arg(long, value_parser = parse_vector3, allow_hyphen_values = true)]
+    pub up: Option<Vector3<f64>>,
+    /// Initial guess of the alignment: `auto`, `identity`, or a JSON pose file.
+    #[arg(long, default_value = "auto")]
+    pub init: String,
+    /// Configuration (TOML) with `[perception]` and `[plan]` tables.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Output folder.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// The configuration of `uvms plan`: the perception stages and the planner.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlanCommandConfig {
+    /// Segmentation, registration, triangulation (as `uvms check`).
+    pub perception: PerceptionConfig,
+    /// The planner.
+    pub plan: PlanConfig,
+}
+
+/// Applies `--pattern` to the configuration.
+fn apply_pattern(cfg: &mut PlanConfig, spec: &str) -> Result<()> {
+    cfg.pattern = match spec {
+        "ring" => PatternKind::Ring,
+        "raster" => PatternKind::Raster,
+        "line" => PatternKind::Line,
+        file if file.ends_with(".csv") || Path::new(file).is_file() => {
+            cfg.polyline.file = Some(PathBuf::from(file));
+            PatternKind::Polyline
+        }
+        other => {
+            return Err(Error::input(
+                "--pattern",
+                format!("'{other}' is not ring, raster, line or a CSV file"),
+            ));
+        }
+    };
+    Ok(())
+}
+
+/// The readable account of a plan.
+pub fn plan_text(r: &PlanReport) -> String {
+    let mut t = String::new();
+    let [approach, dwell, contact, retreat] = r.phase_durations_s;
+    let _ = writeln!(
+        t,
+        "plan         {} pattern: {} rows, {:.3} m in contact at {:.3} m/s, {} samples every {:.2} mm",
+        r.pattern,
+        r.rows,
+        r.length_m,
+        r.speed_m_s,
+        r.contact_points,
+        r.spacing_m * 1e3
+    );
+    if let Some(arc) = r.arc_deg {
+        let _ = writeln!(t, "  arc                            {arc:.1}°");
+    }
+    let _ = writeln!(
+        t,
+        "  duration                       {:.1} s (approach {approach:.1}, dwell {dwell:.1}, contact {contact:.1}, retreat {retreat:.1})",
+        r.duration_s
+    );
+    let _ = writeln!(
+        t,
+        "  on the reference (scan holes)  {} of {} samples",
+        r.fallback_points, r.contact_points
+    );
+    let _ = writeln!(
+        t,
+        "  fastest turn of the tool       {:.1}°/s ({} steps slowed to the limit)",
+        r.max_rate_deg_s, r.rate_limited_steps
+    );
+    if r.clipped {
+        let _ = writeln!(t, "  clipped to the scanned surface");
+    }
+    t
+}
+
+/// The seabed plane and its triangulated inliers, from a cleaned cloud.
+fn seabed_surface(points: &[Point3<f64>], inliers: &[usize], cfg: &PerceptionConfig) -> Result<TriangleMesh> {
+    let pts: Vec<Point3<f64>> = inliers.iter().filter_map(|&i| points.get(i).copied()).collect();
+    triangulate_view(&pts, &cfg.view.camera(), &cfg.surface)
+}
+
+/// Runs `uvms plan`.
+///
+/// # Errors
+/// [`Error::Input`] for bad files, arguments or configuration (exit 2); [`Error::Failed`] when a
+/// stage fails: no seabed or object found, ICP not converged, a pattern that misses the object
+/// or is wider than the scanned surface (exit 1).
+pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
+    let mut cfg: PlanCommandConfig = crate::config::load(args.config.as_deref())?;
+    if let Some(p) = &args.pattern {
+        apply_pattern(&mut cfg.plan, p)?;
+    }
+    cfg.plan.validate()?;
+    let line = cfg.plan.pattern == PatternKind::Line;
+    if args.reference.is_none() && !line {
+        return Err(Error::input(
+            "--reference",
+            format!(
+                "the {} pattern needs the reference model",
+                cfg.plan.pattern.as_str()
+            ),
+        ));
+    }
+    let init = init_mode(&args.init)?;
+    let truth = match &args.ground_truth {
+        Some(p) => Some(read_pose_file(p, "t_scan_reference")?),
+        None => None,
+    };
+    let mut inputs: Vec<&Path> = vec![&args.scan];
+    inputs.extend(args.reference.as_deref());
+    inputs.extend(args.ground_truth.as_deref());
+    inputs.extend(args.config.as_deref());
+    inputs.extend(cfg.plan.polyline.file.as_deref());
+    let out = OutDir::create(&args.out, &inputs)?;
+    let (scan, _) = read_cloud(&args.scan)?;
+    if scan.is_empty() {
+        return Err(Error::input(args.scan.display(), "the scan has no points"));
+    }
+    let pc = &cfg.perception;
+    let camera = pc.view.camera();
+    let mut summary = json!({});
+    let mut text = String::new();
+    let (report, trajectory) = match &args.reference {
+        Some(reference) => {
+            let model = load_reference(reference, pc)?;
+            let opts = CheckOptions {
+                up: args.up,
+                init,
+                whole_scan: false,
+                truth,
+            };
+            let result = check(&scan, &model, &opts, pc)?;
+            summary = check_summary(&result);
+            summary["reference"] = json!(reference.display().to_string());
+            text += &check_text(&result);
+            let seg = result.segmentation.as_ref();
+            if let Some(seg) = seg {
+                summary["segmentation"] = segmentation_summary(seg);
+            }
+            let fit = seg.and_then(|s| s.seabed.as_ref().map(|f| (s, f)));
+            let seabed = match fit {
+                Some((s, f)) if line => Some(seabed_surface(&s.cloud.points, &f.inliers, pc)?),
+                _ => None,
+            };
+            let axes = ObjectAxes::with_axis(
+                &result.reference_surface,
+                result.reference_axes.centroid,
+                result.reference_axes.axes.column(0).into_owned(),
+            );
+            let input = PlanInput {
+                object: Some(ObjectInput {
+                    scan_surface: &result.scan_surface,
+                    reference: &result.reference_surface,
+                    t_scan_reference: result.registration.t_scan_reference,
+                    axes,
+                }),
+                viewpoint: camera,
+                seabed_plane: fit.map(|(_, f)| f.plane.coefficients()),
+                seabed_surface: seabed.as_ref(),
+            };
+            let p = plan(&input, &cfg.plan)?;
+            text += &write_check_products(&out, &result, reference)?;
+            (p.report, p.trajectory)
+        }
+        None => {
+            // Soil sampling on a sediment patch: the seabed is all there is.
+            let (cloud, _) = clean(&scan, &pc.clean, &camera)?;
+            let fit = find_seabed(&cloud.points, args.up.as_ref(), &pc.seabed)?;
+            let seabed = seabed_surface(&cloud.points, &fit.inliers, pc)?;
+            summary["seabed_plane"] = json!(fit.plane.coefficients());
+            summary["seabed_inliers"] = json!(fit.inliers.len());
+            let input = PlanInput {
+                object: None,
+                viewpoint: camera,
+                seabed_plane: Some(fit.plane.coefficients()),
+                seabed_surface: Some(&seabed),
+            };
+            let p = plan(&input, &cfg.plan)?;
+            (p.report, p.trajectory)
+        }
+    };
+    let mut trajectory = trajectory;
+    trajectory.notes.push(format!("scan: {}", args.scan.display()));
+    if let Some(r) = &args.reference {
+        trajectory.notes.push(format!("reference: {}", r.display()));
+    }
+    out.write_toml("config.toml", &cfg)?;
+    out.write_with("trajectory.csv", |w| trajectory.write_csv(w))?;
+    out.write_with("trajectory.ply", |w| trajectory.write_ply(w, 0.02, 25))?;
+    let plan_summary = serde_json::to_value(&report).map_err(|e| Error::failed("summary", e))?;
+    if let (Some(s), Some(p)) = (summary.as_object_mut(), plan_summary.as_object()) {
+        s.extend(p.clone());
+    }
+    summary["scan"] = json!(args.scan.display().to_string());
+    text += &plan_text(&report);
+    let _ = writeln!(
+        text,
+        "wrote        trajectory.csv, trajectory.ply, summary.json, config.toml in {}",
+        out.path().display()
+    );
+    Ok(Report {
+        summary,
+        text,
+        out: Some(out),
+    })
+}
