@@ -15,7 +15,9 @@ pub mod arm;
 pub mod check;
 pub mod info;
 pub mod plan;
+pub mod run;
 pub mod segment;
+pub mod sim;
 pub mod synth;
 
 /// Command-line arguments.
@@ -52,6 +54,10 @@ pub enum Command {
     Synth(synth::SynthArgs),
     /// Segment, check and plan: a tool trajectory on the scanned surface (CSV, PLY).
     Plan(plan::PlanArgs),
+    /// Simulate the contact operation along a trajectory under the seed's force control.
+    Sim(sim::SimArgs),
+    /// Run a pipeline file end to end: scan, alignment, trajectory, simulation.
+    Run(run::RunArgs),
 }
 
 /// What a command produced.
@@ -107,6 +113,8 @@ pub fn execute(cli: Cli) -> Result<()> {
         Command::Check(args) => check::run(args, &ctx)?,
         Command::Synth(args) => synth::run(args, &ctx)?,
         Command::Plan(args) => plan::run(args, &ctx)?,
+        Command::Sim(args) => sim::run(args, &ctx)?,
+        Command::Run(args) => run::run(args, &ctx)?,
     };
     if let Some(out) = &report.out {
         out.write_json("summary.json", &report.summary)?;

@@ -141,6 +141,82 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
     if let Some(p) = &args.pattern {
         apply_pattern(&mut cfg.plan, p)?;
     }
+    let inputs = PlanInputs {
+        scan: args.scan.clone(),
+        reference: args.reference.clone(),
+        ground_truth: args.ground_truth.clone(),
+        up: args.up.map(|v| [v.x, v.y, v.z]),
+        init: args.init.clone(),
+    };
+    let mut files: Vec<&Path> = inputs.files();
+    files.extend(args.config.as_deref());
+    files.extend(cfg.plan.polyline.file.as_deref());
+    let out = OutDir::create(&args.out, &files)?;
+    let mut stage = plan_stage(&inputs, &cfg, &out)?;
+    out.write_toml("config.toml", &cfg)?;
+    let _ = writeln!(
+        stage.text,
+        "wrote        trajectory.csv, trajectory.ply, summary.json, config.toml in {}",
+        out.path().display()
+    );
+    let mut summary = stage.check;
+    if let (Some(s), Some(p)) = (summary.as_object_mut(), stage.plan.as_object()) {
+        s.extend(p.clone());
+    }
+    Ok(Report {
+        summary,
+        text: stage.text,
+        out: Some(out),
+    })
+}
+
+/// The input files and options of the planning stage (`uvms plan`'s arguments, or a
+/// pipeline's `[input]`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlanInputs {
+    /// The scan (PLY, scan frame `S`).
+    pub scan: PathBuf,
+    /// The reference model; optional for the line pattern.
+    pub reference: Option<PathBuf>,
+    /// Ground truth for the alignment check (`t_scan_reference`).
+    pub ground_truth: Option<PathBuf>,
+    /// Prior on the seabed normal in the scan frame.
+    pub up: Option<[f64; 3]>,
+    /// Initial guess of the alignment: `auto`, `identity` or a JSON pose file.
+    pub init: String,
+}
+
+impl PlanInputs {
+    /// The files read.
+    pub fn files(&self) -> Vec<&Path> {
+        let mut v: Vec<&Path> = vec![&self.scan];
+        v.extend(self.reference.as_deref());
+        v.extend(self.ground_truth.as_deref());
+        v
+    }
+}
+
+/// What the planning stage produced.
+#[derive(Debug, Clone)]
+pub struct PlanStage {
+    /// The alignment check's summary (with the segmentation), or the seabed's for the line
+    /// pattern without a reference.
+    pub check: serde_json::Value,
+    /// The plan's summary.
+    pub plan: serde_json::Value,
+    /// The readable account.
+    pub text: String,
+    /// The trajectory (world frame).
+    pub trajectory: crate::trajectory::Trajectory,
+}
+
+/// Segment + check + plan: writes what `uvms check` writes, `trajectory.csv` and
+/// `trajectory.ply` into `out`.
+///
+/// # Errors
+/// As [`run`].
+pub fn plan_stage(args: &PlanInputs, cfg: &PlanCommandConfig, out: &OutDir) -> Result<PlanStage> {
     cfg.plan.validate()?;
     let line = cfg.plan.pattern == PatternKind::Line;
     if args.reference.is_none() && !line {
@@ -152,17 +228,11 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
             ),
         ));
     }
-    let init = init_mode(&args.init)?;
+    let init = init_mode(if args.init.is_empty() { "auto" } else { &args.init })?;
     let truth = match &args.ground_truth {
         Some(p) => Some(read_pose_file(p, "t_scan_reference")?),
         None => None,
     };
-    let mut inputs: Vec<&Path> = vec![&args.scan];
-    inputs.extend(args.reference.as_deref());
-    inputs.extend(args.ground_truth.as_deref());
-    inputs.extend(args.config.as_deref());
-    inputs.extend(cfg.plan.polyline.file.as_deref());
-    let out = OutDir::create(&args.out, &inputs)?;
     let (scan, _) = read_cloud(&args.scan)?;
     if scan.is_empty() {
         return Err(Error::input(args.scan.display(), "the scan has no points"));
@@ -175,7 +245,7 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
         Some(reference) => {
             let model = load_reference(reference, pc)?;
             let opts = CheckOptions {
-                up: args.up,
+                up: args.up.map(Vector3::from),
                 init,
                 whole_scan: false,
                 truth,
@@ -210,13 +280,13 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
                 seabed_surface: seabed.as_ref(),
             };
             let p = plan(&input, &cfg.plan)?;
-            text += &write_check_products(&out, &result, reference)?;
+            text += &write_check_products(out, &result, reference)?;
             (p.report, p.trajectory)
         }
         None => {
             // Soil sampling on a sediment patch: the seabed is all there is.
             let (cloud, _) = clean(&scan, &pc.clean, &camera)?;
-            let fit = find_seabed(&cloud.points, args.up.as_ref(), &pc.seabed)?;
+            let fit = find_seabed(&cloud.points, args.up.map(Vector3::from).as_ref(), &pc.seabed)?;
             let seabed = seabed_surface(&cloud.points, &fit.inliers, pc)?;
             summary["seabed_plane"] = json!(fit.plane.coefficients());
             summary["seabed_inliers"] = json!(fit.inliers.len());
@@ -235,23 +305,15 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
     if let Some(r) = &args.reference {
         trajectory.notes.push(format!("reference: {}", r.display()));
     }
-    out.write_toml("config.toml", &cfg)?;
     out.write_with("trajectory.csv", |w| trajectory.write_csv(w))?;
     out.write_with("trajectory.ply", |w| trajectory.write_ply(w, 0.02, 25))?;
     let plan_summary = serde_json::to_value(&report).map_err(|e| Error::failed("summary", e))?;
-    if let (Some(s), Some(p)) = (summary.as_object_mut(), plan_summary.as_object()) {
-        s.extend(p.clone());
-    }
     summary["scan"] = json!(args.scan.display().to_string());
     text += &plan_text(&report);
-    let _ = writeln!(
+    Ok(PlanStage {
+        check: summary,
+        plan: plan_summary,
         text,
-        "wrote        trajectory.csv, trajectory.ply, summary.json, config.toml in {}",
-        out.path().display()
-    );
-    Ok(Report {
-        summary,
-        text,
-        out: Some(out),
+        trajectory,
     })
 }

@@ -157,6 +157,16 @@ impl Thrusters {
         Ok(())
     }
 
+    /// Sets every rotor to the steady state of the commands `cmd` (N): thrusters that have
+    /// been holding these commands for a long time.
+    ///
+    /// # Errors
+    /// As [`Thrusters::step`].
+    pub fn hold(&mut self, cmd: &[f64]) -> Result<()> {
+        // An infinitely long step of the exact first-order lag lands on the steady state.
+        self.step(f64::INFINITY, cmd)
+    }
+
     /// The thrusts now, N.
     pub fn thrusts(&self) -> &[f64] {
         self.thrust.as_slice()

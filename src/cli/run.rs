@@ -1,0 +1,127 @@
+//! `uvms run PIPELINE.toml [--out DIR]`: scan to contact operation, end to end.
+//!
+//! A pipeline file holds every stage's configuration: `[input]` (the scan, the reference
+//! model, optionally the ground truth, the `up` prior and the initial guess), `[perception]`
+//! (as `uvms check`), `[plan]` (as `uvms plan`; its `[plan.frames]` also place the scan's
+//! surface in the world for the simulation) and `[sim]` (as `uvms sim`, with the true surface
+//! the tool touches). Paths are relative to the pipeline file. Stages: segment → check → plan
+//! (one stage, as `uvms plan`) → hover point → simulation. Writes what `uvms plan` and
+//! `uvms sim` write into one folder (default `out/NAME` for `pipelines/NAME.toml`); the summary
+//! nests each stage's summary under its name (`check`, `plan`, `sim`) with the stage timings.
+
+use super::plan::{PlanCommandConfig, PlanInputs, plan_stage};
+use super::sim::{relative_to, resolve_paths, sim_stage};
+use super::{Ctx, Report};
+use crate::error::{Error, Result};
+use crate::output::OutDir;
+use crate::perception::PerceptionConfig;
+use crate::plan::PlanConfig;
+use crate::sim::SimConfig;
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Arguments of `uvms run`.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// The pipeline file (TOML).
+    pub pipeline: PathBuf,
+    /// Output folder (default: `out/` and the pipeline's name).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// A pipeline file.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Pipeline {
+    /// Input files.
+    pub input: PlanInputs,
+    /// Segmentation, registration, triangulation, accuracy.
+    pub perception: PerceptionConfig,
+    /// The planner.
+    pub plan: PlanConfig,
+    /// The simulation.
+    pub sim: SimConfig,
+}
+
+impl Pipeline {
+    /// Reads a pipeline file and resolves its paths against its folder.
+    ///
+    /// # Errors
+    /// [`Error::Input`] for an unreadable file, a bad key or a missing scan.
+    pub fn load(path: &Path) -> Result<Self> {
+        let mut p: Pipeline = crate::config::load(Some(path))?;
+        if p.input.scan.as_os_str().is_empty() {
+            return Err(Error::input(
+                format!("{}: input.scan", path.display()),
+                "the scan to process is missing",
+            ));
+        }
+        let file = Some(path);
+        p.input.scan = relative_to(file, &p.input.scan);
+        p.input.reference = p.input.reference.as_deref().map(|r| relative_to(file, r));
+        p.input.ground_truth = p.input.ground_truth.as_deref().map(|r| relative_to(file, r));
+        p.plan.polyline.file = p.plan.polyline.file.as_deref().map(|r| relative_to(file, r));
+        resolve_paths(&mut p.sim, file);
+        Ok(p)
+    }
+}
+
+/// Runs `uvms run`.
+///
+/// # Errors
+/// As the stages: [`Error::Input`] (exit 2) for bad files or configuration,
+/// [`Error::Failed`] (exit 1) naming the stage that failed.
+pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
+    let p = Pipeline::load(&args.pipeline)?;
+    let out_dir = args.out.clone().unwrap_or_else(|| {
+        let name = args
+            .pipeline
+            .file_stem()
+            .map_or("run".into(), |s| s.to_os_string());
+        Path::new("out").join(name)
+    });
+    let mut inputs = p.input.files();
+    inputs.push(&args.pipeline);
+    inputs.extend(p.sim.surface.as_deref());
+    inputs.extend(p.sim.model.as_deref());
+    inputs.extend(p.plan.polyline.file.as_deref());
+    let out = OutDir::create(&out_dir, &inputs)?;
+    let stages = ctx.progress(2, "pipeline");
+    let mut text = format!("pipeline     {}\n", args.pipeline.display());
+    let started = Instant::now();
+    let plan_cfg = PlanCommandConfig {
+        perception: p.perception.clone(),
+        plan: p.plan.clone(),
+    };
+    let planned = plan_stage(&p.input, &plan_cfg, &out)?;
+    let plan_s = started.elapsed().as_secs_f64();
+    stages.inc(1);
+    text += &planned.text;
+    let sim_started = Instant::now();
+    let (sim, sim_text) = sim_stage(&planned.trajectory, &p.sim, &p.plan.frames, &out, ctx)?;
+    let sim_s = sim_started.elapsed().as_secs_f64();
+    stages.finish_and_clear();
+    text += &sim_text;
+    out.write_toml("config.toml", &p)?;
+    let _ = writeln!(
+        text,
+        "stages       segment + check + plan {plan_s:.2} s, hover + sim {sim_s:.2} s; wrote everything in {}",
+        out.path().display()
+    );
+    let summary = json!({
+        "pipeline": args.pipeline.display().to_string(),
+        "check": planned.check,
+        "plan": planned.plan,
+        "sim": sim,
+        "timings_s": {"segment_check_plan": plan_s, "hover_sim": sim_s, "total": plan_s + sim_s},
+    });
+    Ok(Report {
+        summary,
+        text,
+        out: Some(out),
+    })
+}

@@ -1,0 +1,181 @@
+//! `uvms sim --trajectory TRAJ.csv [--surface MESH.ply] [--config F] --out DIR`: the contact
+//! operation alone, from a trajectory `uvms plan` wrote. The configuration has a `[sim]` table
+//! (see [`crate::sim::SimConfig`]) and a `[frames]` table (where the scan was taken from: maps a
+//! surface given in the scan frame into the world). Paths in the configuration are relative to
+//! its file.
+//!
+//! Writes `timeseries.csv`, the figures (`joint_moments`, `force`, `deviations`, `joints`, each
+//! as SVG and PNG), `summary.json` and `config.toml`.
+
+use super::{Ctx, Report};
+use crate::error::{Error, Result};
+use crate::frames::ScanFrames;
+use crate::io::ply::read_mesh;
+use crate::output::OutDir;
+use crate::plot::{to_png, to_svg};
+use crate::sim::record::{figures, write_csv};
+use crate::sim::{SimConfig, SimSummary, SurfaceFrame, simulate};
+use crate::trajectory::Trajectory;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `uvms sim`.
+#[derive(Debug, clap::Args)]
+pub struct SimArgs {
+    /// The trajectory (`trajectory.csv` of `uvms plan`, world frame).
+    #[arg(long)]
+    pub trajectory: PathBuf,
+    /// The true surface the tool touches (PLY mesh); overrides `sim.surface`.
+    #[arg(long)]
+    pub surface: Option<PathBuf>,
+    /// Configuration (TOML) with `[sim]` and `[frames]` tables.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Output folder.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// The configuration of `uvms sim`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimCommandConfig {
+    /// The simulation.
+    pub sim: SimConfig,
+    /// Where the scan was taken from (to map a scan-frame surface into the world).
+    pub frames: ScanFrames,
+}
+
+/// `path` relative to the folder of the file `base` (unless absolute).
+pub fn relative_to(base: Option<&Path>, path: &Path) -> PathBuf {
+    match base.and_then(Path::parent) {
+        Some(dir) if path.is_relative() => dir.join(path),
+        _ => path.to_path_buf(),
+    }
+}
+
+/// Resolves the configuration's paths against the folder of its file.
+pub fn resolve_paths(cfg: &mut SimConfig, file: Option<&Path>) {
+    cfg.model = cfg.model.as_deref().map(|p| relative_to(file, p));
+    cfg.surface = cfg.surface.as_deref().map(|p| relative_to(file, p));
+}
+
+/// The figures of a run, as readable text.
+pub fn sim_text(s: &SimSummary) -> String {
+    let mut t = String::new();
+    let [x, y, z] = s.hover_position_m;
+    let _ = writeln!(
+        t,
+        "hover        [{x:.3}, {y:.3}, {z:.3}] m, heading {:.1}°, worst manipulability {:.4}",
+        s.hover_yaw_deg, s.hover_manipulability
+    );
+    let _ = writeln!(
+        t,
+        "sim          {:.1} s simulated at {:.0}× real time",
+        s.simulated_s, s.realtime_factor
+    );
+    let f = |v: Option<f64>| v.map_or("never".to_string(), |v| format!("{v:.2} s"));
+    let _ = writeln!(
+        t,
+        "  force      setpoint {:.1} N, settled mean {:.2} N (min {:.2}, RMS error {:.2}), max {:.2} N",
+        s.force_setpoint_n, s.force_settled_mean_n, s.force_settled_min_n, s.force_rms_error_n, s.force_max_n
+    );
+    let _ = writeln!(
+        t,
+        "  contact    first at {}, lost for {:.3} s after it",
+        f(s.first_contact_s),
+        s.contact_lost_s
+    );
+    let _ = writeln!(
+        t,
+        "  tool       ‖e‖ max {:.2} mm (off the path across k: {:.2} mm)",
+        s.tool_deviation_max_m * 1e3,
+        s.tool_path_error_max_m * 1e3
+    );
+    let _ = writeln!(
+        t,
+        "  vehicle    ‖r‖ max {:.2} mm, attitude max {:.3}°",
+        s.auv_deviation_max_m * 1e3,
+        s.attitude_deviation_max_rad.to_degrees()
+    );
+    let _ = writeln!(
+        t,
+        "  identified joint moments within {:.3} N·m, force along k within {:.2} N",
+        s.moment_id_error_max_nm, s.force_id_error_max_n
+    );
+    t
+}
+
+/// Loads the surface and the model, simulates, writes the products into `out`; the summary
+/// (as JSON) and the readable account.
+///
+/// # Errors
+/// [`Error::Input`] for bad files or configuration; [`Error::Failed`] when the hover point or
+/// the simulation fails.
+pub fn sim_stage(
+    trajectory: &Trajectory,
+    cfg: &SimConfig,
+    frames: &ScanFrames,
+    out: &OutDir,
+    ctx: &Ctx,
+) -> Result<(serde_json::Value, String)> {
+    cfg.validate()?;
+    frames.validate()?;
+    let surface_file = cfg.surface.as_deref().ok_or_else(|| {
+        Error::input(
+            "sim.surface",
+            "the true surface the tool touches is needed (a PLY mesh, e.g. scene_mesh.ply of uvms synth)",
+        )
+    })?;
+    let mesh = read_mesh(surface_file)?;
+    let mesh = match cfg.surface_frame {
+        SurfaceFrame::Scan => mesh.transformed(&frames.t_world_scan()),
+        SurfaceFrame::World => mesh,
+    };
+    let model = crate::model::load(cfg.model.as_deref())?;
+    let bar = ctx.progress(1000, "sim");
+    let result = simulate(trajectory, &mesh, &model, cfg, &mut |f| {
+        bar.set_position((f * 1000.0) as u64)
+    });
+    bar.finish_and_clear();
+    let run = result?;
+    out.write_with("timeseries.csv", |w| write_csv(&run.rows, w))?;
+    for (name, fig) in figures(&run.rows, &cfg.scenario) {
+        out.write_bytes(&format!("{name}.svg"), to_svg(&fig, 1200, 900).as_bytes())?;
+        out.write_bytes(&format!("{name}.png"), &to_png(&fig, 1200, 900))?;
+    }
+    let summary = serde_json::to_value(&run.summary).map_err(|e| Error::failed("summary", e))?;
+    let mut text = sim_text(&run.summary);
+    let _ = writeln!(
+        text,
+        "wrote        timeseries.csv, joint_moments/force/deviations/joints .svg and .png in {}",
+        out.path().display()
+    );
+    Ok((summary, text))
+}
+
+/// Runs `uvms sim`.
+///
+/// # Errors
+/// As [`sim_stage`], and [`Error::Input`] for a bad trajectory file.
+pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
+    let mut cfg: SimCommandConfig = crate::config::load(args.config.as_deref())?;
+    resolve_paths(&mut cfg.sim, args.config.as_deref());
+    if let Some(s) = &args.surface {
+        cfg.sim.surface = Some(s.clone());
+    }
+    let trajectory = Trajectory::read_csv(&args.trajectory)?;
+    let mut inputs: Vec<&Path> = vec![&args.trajectory];
+    inputs.extend(cfg.sim.surface.as_deref());
+    inputs.extend(cfg.sim.model.as_deref());
+    inputs.extend(args.config.as_deref());
+    let out = OutDir::create(&args.out, &inputs)?;
+    let (summary, text) = sim_stage(&trajectory, &cfg.sim, &cfg.frames, &out, ctx)?;
+    out.write_toml("config.toml", &cfg)?;
+    Ok(Report {
+        summary,
+        text,
+        out: Some(out),
+    })
+}

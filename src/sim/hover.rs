@@ -1,0 +1,369 @@
+//! The hover point: where the vehicle should hold station so that its manipulator can follow
+//! the whole trajectory.
+//!
+//! Candidates: the vehicle level, at headings every `yaw_step_deg`, on a grid of positions
+//! around the trajectory's centroid (`horizontal_range_m` either way, heights from
+//! `height_range_m` above it), never closer than `min_clearance_m` above the trajectory's
+//! highest point. For each candidate and each inverse-kinematics branch at the first sample,
+//! the branch is followed along the trajectory (every `stride`-th sample, then the analytic IK
+//! nearest the previous solution); it reaches the trajectory if every sample has a solution
+//! within the joint limits and no joint jumps by more than `max_joint_step_rad` between
+//! samples (no flip of the wrist or elbow). Among those that reach, the one with the largest
+//! worst-case manipulability `min |det J(q)|` (Yoshikawa) wins; a second, finer grid around
+//! it refines the choice. No candidate reaching the whole trajectory is an error that says
+//! how far the best got.
+
+use crate::arm::{Arm, JointVector};
+use crate::error::{Error, Result};
+use crate::trajectory::Trajectory;
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// Hover-point search (`[sim.hover]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HoverConfig {
+    /// A fixed stabilisation position (world, m) instead of the search.
+    pub position_m: Option<[f64; 3]>,
+    /// The heading with `position_m`, degrees.
+    pub yaw_deg: f64,
+    /// Horizontal half-width of the search grid around the trajectory's centroid, m.
+    pub horizontal_range_m: f64,
+    /// Heights of the vehicle's origin above the centroid searched, [lowest, highest], m.
+    pub height_range_m: [f64; 2],
+    /// Grid step of the coarse search, m.
+    pub step_m: f64,
+    /// Heading step of the coarse search, degrees.
+    pub yaw_step_deg: f64,
+    /// Least height of the vehicle's origin above the trajectory's highest point, m.
+    pub min_clearance_m: f64,
+    /// Largest joint change between checked samples, rad.
+    pub max_joint_step_rad: f64,
+    /// Samples checked: about this many, evenly spread.
+    pub samples: usize,
+}
+
+impl Default for HoverConfig {
+    fn default() -> Self {
+        HoverConfig {
+            position_m: None,
+            yaw_deg: 0.0,
+            horizontal_range_m: 0.6,
+            height_range_m: [0.3, 1.2],
+            step_m: 0.1,
+            yaw_step_deg: 45.0,
+            min_clearance_m: 0.45,
+            max_joint_step_rad: 0.5,
+            samples: 60,
+        }
+    }
+}
+
+impl HoverConfig {
+    /// Checks the values.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the first bad field.
+    pub fn validate(&self) -> Result<()> {
+        let [lo, hi] = self.height_range_m;
+        if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+            return Err(Error::input(
+                "sim.hover.height_range_m",
+                "must be [lowest, highest] with lowest ≤ highest",
+            ));
+        }
+        for (name, v) in [
+            ("sim.hover.step_m", self.step_m),
+            ("sim.hover.yaw_step_deg", self.yaw_step_deg),
+            ("sim.hover.max_joint_step_rad", self.max_joint_step_rad),
+        ] {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(Error::input(name, "must be a positive number"));
+            }
+        }
+        if !(self.horizontal_range_m >= 0.0 && self.min_clearance_m.is_finite()) {
+            return Err(Error::input(
+                "sim.hover",
+                "ranges must be finite and non-negative",
+            ));
+        }
+        if self.samples < 2 || self.samples > 100_000 {
+            return Err(Error::input("sim.hover.samples", "must be between 2 and 100000"));
+        }
+        if let Some(p) = self.position_m
+            && !p.iter().all(|v| v.is_finite())
+        {
+            return Err(Error::input("sim.hover.position_m", "must be finite"));
+        }
+        Ok(())
+    }
+}
+
+/// The chosen stabilisation pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hover {
+    /// The vehicle's stabilisation pose, `t_world_body`.
+    pub t_world_body: Isometry3<f64>,
+    /// The arm's configuration at the trajectory's first sample.
+    pub q_start: JointVector,
+    /// The worst-case manipulability `min |det J|` along the trajectory.
+    pub manipulability: f64,
+    /// Candidates evaluated.
+    pub candidates: usize,
+}
+
+/// How far one candidate got.
+struct Reach {
+    q_start: JointVector,
+    /// Checked samples reached before the first failure (all: the whole trajectory).
+    reached: usize,
+    manipulability: f64,
+}
+
+/// The vehicle pose at `position`, level, heading `yaw`.
+fn level_pose(position: Vector3<f64>, yaw: f64) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::from(position),
+        UnitQuaternion::from_euler_angles(0.0, 0.0, yaw),
+    )
+}
+
+/// Follows each IK branch of the first target along `targets` (world tool poses) for the
+/// vehicle at `t_world_body`; the best branch.
+fn follow(
+    arm: &Arm,
+    t_world_body: &Isometry3<f64>,
+    targets: &[Isometry3<f64>],
+    max_step: f64,
+) -> Result<Option<Reach>> {
+    let t_base_world = (t_world_body * arm.t_body_base).inverse();
+    let Some(first) = targets.first() else {
+        return Ok(None);
+    };
+    let starts = arm.ik(&(t_base_world * first), &JointVector::zeros())?;
+    let mut best: Option<Reach> = None;
+    for q0 in starts.as_slice() {
+        let mut q = *q0;
+        let mut worst = arm.jacobian(&q).determinant().abs();
+        let mut reached = 1;
+        for target in &targets[1..] {
+            let Some(next) = arm.ik(&(t_base_world * target), &q)?.nearest().copied() else {
+                break;
+            };
+            if (next - q).amax() > max_step {
+                break;
+            }
+            q = next;
+            worst = worst.min(arm.jacobian(&q).determinant().abs());
+            reached += 1;
+        }
+        let better = best.as_ref().is_none_or(|b| {
+            (reached, worst).partial_cmp(&(b.reached, b.manipulability)) == Some(std::cmp::Ordering::Greater)
+        });
+        if better {
+            best = Some(Reach {
+                q_start: *q0,
+                reached,
+                manipulability: worst,
+            });
+        }
+    }
+    Ok(best)
+}
+
+/// The hover point for `trajectory` (world frame) with the controller's `arm`.
+///
+/// # Errors
+/// [`Error::Input`] for a bad configuration or an empty trajectory; [`Error::Failed`] (stage
+/// `hover`) if no candidate reaches the whole trajectory, saying which part is out of reach.
+pub fn choose(arm: &Arm, trajectory: &Trajectory, cfg: &HoverConfig) -> Result<Hover> {
+    cfg.validate()?;
+    let n = trajectory.samples.len();
+    if n == 0 {
+        return Err(Error::input("trajectory", "has no samples"));
+    }
+    let stride = n.div_ceil(cfg.samples).max(1);
+    let mut idx: Vec<usize> = (0..n).step_by(stride).collect();
+    if idx.last() != Some(&(n - 1)) {
+        idx.push(n - 1);
+    }
+    let targets: Vec<Isometry3<f64>> = idx
+        .iter()
+        .map(|&i| {
+            let s = &trajectory.samples[i];
+            Isometry3::from_parts(Translation3::from(s.position.coords), s.orientation)
+        })
+        .collect();
+    let centroid = targets.iter().map(|t| t.translation.vector).sum::<Vector3<f64>>() / targets.len() as f64;
+    // NED: "higher" is smaller z.
+    let top = targets
+        .iter()
+        .map(|t| t.translation.vector.z)
+        .fold(f64::INFINITY, f64::min);
+    let z_max = top - cfg.min_clearance_m;
+    let mut evaluated = 0usize;
+    let mut best: Option<(Isometry3<f64>, Reach)> = None;
+    let mut consider = |pose: Isometry3<f64>, best: &mut Option<(Isometry3<f64>, Reach)>| -> Result<()> {
+        evaluated += 1;
+        if let Some(r) = follow(arm, &pose, &targets, cfg.max_joint_step_rad)? {
+            let better = best.as_ref().is_none_or(|(_, b)| {
+                (r.reached, r.manipulability).partial_cmp(&(b.reached, b.manipulability))
+                    == Some(std::cmp::Ordering::Greater)
+            });
+            if better {
+                *best = Some((pose, r));
+            }
+        }
+        Ok(())
+    };
+    if let Some(p) = cfg.position_m {
+        consider(level_pose(Vector3::from(p), cfg.yaw_deg.to_radians()), &mut best)?;
+    } else {
+        let grid = |half: f64, step: f64| {
+            let k = (half / step).floor() as i64;
+            (-k..=k).map(move |i| i as f64 * step)
+        };
+        let heights = |step: f64| {
+            let [lo, hi] = cfg.height_range_m;
+            let k = ((hi - lo) / step).floor() as i64;
+            (0..=k).map(move |i| lo + i as f64 * step)
+        };
+        let yaws: Vec<f64> = (0..(360.0 / cfg.yaw_step_deg).round().max(1.0) as i64)
+            .map(|i| (i as f64 * cfg.yaw_step_deg).to_radians())
+            .collect();
+        for &yaw in &yaws {
+            for h in heights(cfg.step_m) {
+                let z = (centroid.z - h).min(z_max);
+                for dx in grid(cfg.horizontal_range_m, cfg.step_m) {
+                    for dy in grid(cfg.horizontal_range_m, cfg.step_m) {
+                        let p = Vector3::new(centroid.x + dx, centroid.y + dy, z);
+                        consider(level_pose(p, yaw), &mut best)?;
+                    }
+                }
+            }
+        }
+        // Refine around the best: half the step, a third of the heading step.
+        if let Some((pose, _)) = best.as_ref().map(|(p, r)| (*p, r.reached)) {
+            let c = pose.translation.vector;
+            let yaw0 = pose.rotation.euler_angles().2;
+            let (fine, fine_yaw) = (cfg.step_m / 2.0, cfg.yaw_step_deg.to_radians() / 3.0);
+            for dyaw in [-fine_yaw, 0.0, fine_yaw] {
+                for dz in [-fine, 0.0, fine] {
+                    for dx in [-fine, 0.0, fine] {
+                        for dy in [-fine, 0.0, fine] {
+                            let p = c + Vector3::new(dx, dy, dz);
+                            if p.z <= z_max {
+                                consider(level_pose(p, yaw0 + dyaw), &mut best)?;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    match best {
+        Some((pose, r)) if r.reached == targets.len() => Ok(Hover {
+            t_world_body: pose,
+            q_start: r.q_start,
+            manipulability: r.manipulability,
+            candidates: evaluated,
+        }),
+        best => {
+            let reached = best.map_or(0, |(_, r)| r.reached);
+            let fail = &trajectory.samples[idx[reached.min(idx.len() - 1)]];
+            let p = fail.position;
+            Err(Error::failed(
+                "hover",
+                format!(
+                    "no hover point reaches the whole trajectory within the joint limits: the best of {evaluated} candidates follows it to t = {:.2} s and the point at t = {:.2} s ({} phase, at [{:.3}, {:.3}, {:.3}] m) is out of reach",
+                    trajectory.samples[idx[reached.saturating_sub(1)]].t,
+                    fail.t,
+                    fail.phase.as_str(),
+                    p.x,
+                    p.y,
+                    p.z
+                ),
+            ))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::UvmsModel;
+    use crate::multibody::{Multibody, State};
+    use crate::trajectory::{Phase, Sample};
+    use nalgebra::Point3;
+
+    /// A straight stroke the arm made from a known vehicle pose.
+    fn stroke(mb: &Multibody, from: &Isometry3<f64>, length: f64) -> Trajectory {
+        let q = JointVector::new(0.0, 0.9, -2.0, 0.0, 0.6, 0.0);
+        let start = mb.t_world_tool(&State::at_rest(*from, q));
+        let samples = (0..=40)
+            .map(|i| {
+                let u = i as f64 / 40.0;
+                let p = start.translation.vector + Vector3::new(0.0, length * u, 0.0);
+                Sample {
+                    t: i as f64,
+                    position: Point3::from(p),
+                    orientation: start.rotation,
+                    k: start.rotation * Vector3::z(),
+                    force: 60.0,
+                    phase: Phase::Contact,
+                    fallback: false,
+                }
+            })
+            .collect();
+        Trajectory {
+            samples,
+            notes: vec![],
+        }
+    }
+
+    #[test]
+    fn finds_a_pose_that_reaches_every_sample() {
+        let mb = Multibody::new(&UvmsModel::default()).unwrap();
+        let traj = stroke(&mb, &Isometry3::identity(), 0.3);
+        let cfg = HoverConfig {
+            step_m: 0.15,
+            yaw_step_deg: 90.0,
+            ..HoverConfig::default()
+        };
+        let h = choose(&mb.arm, &traj, &cfg).unwrap();
+        assert!(h.manipulability > 0.0);
+        // Check it independently: every sample has an IK solution from the chosen pose.
+        let t_base_world = (h.t_world_body * mb.arm.t_body_base).inverse();
+        let mut q = h.q_start;
+        for s in &traj.samples {
+            let target = Isometry3::from_parts(Translation3::from(s.position.coords), s.orientation);
+            q = *mb
+                .arm
+                .ik(&(t_base_world * target), &q)
+                .unwrap()
+                .nearest()
+                .unwrap();
+        }
+        let top = traj
+            .samples
+            .iter()
+            .map(|s| s.position.z)
+            .fold(f64::INFINITY, f64::min);
+        assert!(h.t_world_body.translation.z <= top - cfg.min_clearance_m + 1e-12);
+    }
+
+    #[test]
+    fn a_trajectory_out_of_reach_is_a_failed_run_naming_the_point() {
+        let mb = Multibody::new(&UvmsModel::default()).unwrap();
+        // Five metres long: no station reaches both ends.
+        let traj = stroke(&mb, &Isometry3::identity(), 5.0);
+        let cfg = HoverConfig {
+            step_m: 0.3,
+            yaw_step_deg: 90.0,
+            ..HoverConfig::default()
+        };
+        let e = choose(&mb.arm, &traj, &cfg).unwrap_err();
+        assert_eq!(e.exit_code(), 1);
+        assert!(e.to_string().contains("out of reach"), "{e}");
+    }
+}

@@ -1,0 +1,236 @@
+//! ICU, the identification unit of Figure 4: the contact force from joint moments, with no
+//! six-axis force sensor.
+//!
+//! Eq. (1)–(2): the moment on each drive's output shaft is `M_dz = M_wz + M_ez`, so
+//! `M_ez = M_dz − M_wz`, with `M_dz` from the one-axis joint-torque sensors and `M_wz` from the
+//! IDP — the underwater RNEA ([`crate::arm::Arm::inverse_dynamics`]) of the *controller's*
+//! arm model (which may differ from the plant's), at the measured `q`, `q̇`, an estimated `q̈`
+//! (the filtered derivative of the measured rates) and the base motion the gyros give.
+//!
+//! Eq. (3)–(12): a point contact at the tool tip loads joint `i` with `M_ez,i = J_v,iᵀ F_imp`
+//! (the `J_v` columns of the tool-point Jacobian; `F_imp = −F_e` the force the tool exerts).
+//! The seed solves three of these equations in closed form for one configuration (eq. 12 for
+//! `q4 = q6 = 0`: joints 5, 3 and 1) and picks the three joints by rules near singular
+//! configurations: joints 5, 4, 3 in general; 5, 3, 2 when `q5 = 0`; 3, 2, 1 when also
+//! `q4 = 0`. [`ForceMethod::Seed`] solves the chosen 3 × 3 system `A F = m` (`A`'s rows the
+//! chosen `J_v,iᵀ`) — eq. (12) is its closed-form solution in the seed's configuration.
+//! [`ForceMethod::LeastSquares`] (the default) uses all six equations,
+//! `(J_v J_vᵀ) F = J_v M_ez`, a 3 × 3 solve. Neither inverts the Jacobian.
+
+use super::sensors::Measurements;
+use crate::arm::dynamics::BaseMotion;
+use crate::arm::{Arm, JointVector};
+use crate::error::{Error, Result};
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// How the tool force is computed from the external joint moments.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ForceMethod {
+    /// Least squares on all six joints: `(J_v J_vᵀ) F = J_v M_ez`.
+    #[default]
+    LeastSquares,
+    /// The seed's choice of three joints (eq. 3–12 and its switching rules), a 3 × 3 solve.
+    Seed,
+}
+
+/// ICU parameters (`[sim.icu]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IcuConfig {
+    /// How the tool force is computed.
+    pub method: ForceMethod,
+    /// Cut-off of the low-pass filter on the differentiated joint rates (the `q̈` estimate), Hz.
+    pub acceleration_filter_hz: f64,
+    /// A joint angle closer to 0 than this counts as singular in the seed's rules, rad.
+    pub singular_angle_rad: f64,
+}
+
+impl Default for IcuConfig {
+    fn default() -> Self {
+        IcuConfig {
+            method: ForceMethod::LeastSquares,
+            acceleration_filter_hz: 10.0,
+            singular_angle_rad: 0.05,
+        }
+    }
+}
+
+impl IcuConfig {
+    /// Checks the values.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the first bad field.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.acceleration_filter_hz > 0.0 && self.acceleration_filter_hz.is_finite()) {
+            return Err(Error::input(
+                "sim.icu.acceleration_filter_hz",
+                "must be a positive number",
+            ));
+        }
+        if !(self.singular_angle_rad >= 0.0 && self.singular_angle_rad.is_finite()) {
+            return Err(Error::input(
+                "sim.icu.singular_angle_rad",
+                "must be a non-negative number",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One identification.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Identification {
+    /// `M_wz`: the IDP's moments without contact, N·m.
+    pub m_wz: JointVector,
+    /// `M_ez = M_dz − M_wz`, N·m.
+    pub m_ez: JointVector,
+    /// The force the tool exerts on the surface, `F_imp = −F_e`, arm-base axes, N.
+    pub f_imp_base: Vector3<f64>,
+    /// The estimated joint accelerations used by the IDP, rad/s².
+    pub qdd: JointVector,
+}
+
+/// The identification unit, with its acceleration estimator.
+#[derive(Debug, Clone)]
+pub struct Icu {
+    cfg: IcuConfig,
+    qd_prev: Option<JointVector>,
+    qdd: JointVector,
+}
+
+impl Icu {
+    /// A unit with a settled (zero) acceleration estimate.
+    pub fn new(cfg: &IcuConfig) -> Self {
+        Icu {
+            cfg: *cfg,
+            qd_prev: None,
+            qdd: JointVector::zeros(),
+        }
+    }
+
+    /// Eq. (1)–(12) for the measurements `m` taken `dt` after the previous ones, with `arm` the
+    /// controller's model and `base` the base motion it believes.
+    pub fn identify(&mut self, arm: &Arm, m: &Measurements, base: &BaseMotion, dt: f64) -> Identification {
+        if let Some(prev) = self.qd_prev {
+            let raw = (m.qd - prev) / dt;
+            let a = 1.0 - (-2.0 * std::f64::consts::PI * self.cfg.acceleration_filter_hz * dt).exp();
+            self.qdd += (raw - self.qdd) * a;
+        }
+        self.qd_prev = Some(m.qd);
+        let m_wz = arm.inverse_dynamics(&m.q, &m.qd, &self.qdd, base, None).tau_rigid;
+        let m_ez = m.m_dz - m_wz;
+        let f_imp_base = tool_force(arm, &m.q, &m_ez, &self.cfg);
+        Identification {
+            m_wz,
+            m_ez,
+            f_imp_base,
+            qdd: self.qdd,
+        }
+    }
+}
+
+/// The joints the seed's rules pick (0-based) at `q`.
+pub fn seed_joints(q: &JointVector, singular: f64) -> [usize; 3] {
+    let zero = |v: f64| v.abs() < singular;
+    match (zero(q[4]), zero(q[3])) {
+        (false, _) => [4, 3, 2],
+        (true, false) => [4, 2, 1],
+        (true, true) => [2, 1, 0],
+    }
+}
+
+/// The force the tool exerts (arm-base axes) that explains the external moments `m_ez` at `q`
+/// (see the module docs).
+pub fn tool_force(arm: &Arm, q: &JointVector, m_ez: &JointVector, cfg: &IcuConfig) -> Vector3<f64> {
+    let jv = arm.jacobian(q).fixed_rows::<3>(0).into_owned();
+    let least_squares = || {
+        let a = jv * jv.transpose();
+        a.cholesky()
+            .map_or_else(Vector3::zeros, |c| c.solve(&(jv * m_ez)))
+    };
+    match cfg.method {
+        ForceMethod::LeastSquares => least_squares(),
+        ForceMethod::Seed => {
+            let rows = seed_joints(q, cfg.singular_angle_rad);
+            let a = Matrix3::from_fn(|r, c| jv[(c, rows[r])]);
+            let m = Vector3::from_fn(|r, _| m_ez[rows[r]]);
+            let scale = jv.norm().max(1e-12);
+            if a.determinant().abs() < 1e-6 * scale.powi(3) {
+                least_squares()
+            } else {
+                a.lu().solve(&m).unwrap_or_else(least_squares)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::UvmsModel;
+    use crate::multibody::Multibody;
+    use crate::spatial_algebra::Force;
+
+    fn arm() -> Arm {
+        Multibody::new(&UvmsModel::default()).unwrap().arm
+    }
+
+    #[test]
+    fn a_known_tool_force_is_recovered_by_both_methods() {
+        let arm = arm();
+        let f = Vector3::new(12.0, -7.0, 60.0);
+        for q in [
+            JointVector::new(0.3, 0.9, -2.0, 0.4, 0.7, -0.5),
+            JointVector::new(-0.2, 1.2, -2.4, 0.0, 0.9, 0.0),
+            JointVector::new(0.1, 0.8, -1.9, 0.6, 0.02, 0.3),
+        ] {
+            let m_ez = arm.jacobian(&q).fixed_rows::<3>(0).transpose() * f;
+            for method in [ForceMethod::LeastSquares, ForceMethod::Seed] {
+                let cfg = IcuConfig {
+                    method,
+                    ..IcuConfig::default()
+                };
+                let est = tool_force(&arm, &q, &m_ez, &cfg);
+                assert!((est - f).norm() < 1e-8, "{method:?} at {q}: {est}");
+            }
+        }
+    }
+
+    #[test]
+    fn seed_rules_switch_near_singular_wrists() {
+        let s = 0.05;
+        assert_eq!(
+            seed_joints(&JointVector::new(0.0, 1.0, -2.0, 0.3, 0.5, 0.0), s),
+            [4, 3, 2]
+        );
+        assert_eq!(
+            seed_joints(&JointVector::new(0.0, 1.0, -2.0, 0.3, 0.01, 0.0), s),
+            [4, 2, 1]
+        );
+        assert_eq!(
+            seed_joints(&JointVector::new(0.0, 1.0, -2.0, 0.0, 0.01, 0.0), s),
+            [2, 1, 0]
+        );
+    }
+
+    /// With exact sensors and the plant's own model, `M_ez` is exactly `J_vᵀ F_imp` of the force
+    /// the plant applied: eq. (1)–(2) close on the multibody's own joint torques.
+    #[test]
+    fn external_moments_close_on_the_plants_dynamics() {
+        let arm = arm();
+        let q = JointVector::new(0.3, 0.9, -2.0, 0.4, 0.7, -0.5);
+        let qd = JointVector::new(0.05, -0.02, 0.03, 0.0, 0.01, 0.0);
+        let qdd = JointVector::new(0.1, 0.0, -0.2, 0.0, 0.0, 0.3);
+        let g = arm.level_gravity(9.81);
+        let base = BaseMotion::fixed(g);
+        let f_env_base = Vector3::new(-5.0, 3.0, -60.0);
+        let env = Force::new(f_env_base, Vector3::zeros());
+        // What a perfect torque sensor reads: the rigid torques with the contact.
+        let m_dz = arm.inverse_dynamics(&q, &qd, &qdd, &base, Some(&env)).tau_rigid;
+        let m_wz = arm.inverse_dynamics(&q, &qd, &qdd, &base, None).tau_rigid;
+        let f_imp = tool_force(&arm, &q, &(m_dz - m_wz), &IcuConfig::default());
+        assert!((f_imp + f_env_base).norm() < 1e-8, "{f_imp}");
+    }
+}

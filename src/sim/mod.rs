@@ -1,0 +1,742 @@
+//! The contact operation in closed loop: the seed's control system (Konoplin et al. 2024,
+//! section 3 and Figure 4) around the simulated plant ([`crate::plant::Plant`]).
+//!
+//! One module per block of Figure 4:
+//! - [`contact`]: the tool against the *true* surface (penalty, friction, soil) — plant side;
+//! - [`sensors`] (NS): encoders, joint-torque sensors, gyros, the delayed vision fix;
+//! - [`icu`] (ICU): eq. (1)–(12), the tool force from the external joint moments;
+//! - [`fcu`] (FCU): eq. (13)–(16), the force PID giving the extra tool offset;
+//! - [`tcu`] (TCU): eq. (18), the desired tool pose corrected by the measured vehicle pose, and
+//!   the analytic inverse kinematics;
+//! - [`joints`] (MM and its CS): computed-torque joint control with the IDP and the
+//!   compensation of the identified external moments;
+//! - [`vehicle_control`] (AUV SS): closed loop on the measured pose plus the open loop of
+//!   eq. (17), allocated to the thrusters;
+//! - [`hover`]: the stabilisation pose that lets the arm follow the whole trajectory.
+//!
+//! [`simulate`] runs them at the control rate. The controllers see the plant only through
+//! [`sensors::Sensors`]; every sensor reading refers to the plant's state one control period
+//! earlier (the joint-torque sensor reads the shaft torque of the last step). The controllers
+//! use their own model of the vehicle and the arm ([`ModelMismatch`] makes it differ from the
+//! plant's). The contact force they act on is always the one identified from joint moments;
+//! the true one is only logged.
+
+pub mod contact;
+pub mod fcu;
+pub mod hover;
+pub mod icu;
+pub mod joints;
+pub mod record;
+pub mod sensors;
+pub mod tcu;
+pub mod vehicle_control;
+
+use crate::arm::JointVector;
+use crate::arm::dynamics::BaseMotion;
+use crate::error::{Error, Result};
+use crate::integrate::Integrator;
+use crate::mesh::TriangleMesh;
+use crate::model::UvmsModel;
+use crate::multibody::{Inputs, Multibody, State};
+use crate::plant::{Plant, PlantInput};
+use crate::spatial_algebra::Force;
+use crate::trajectory::{Phase, Trajectory};
+use crate::vehicle::thrusters::Thrusters;
+use contact::{Contact, ContactConfig};
+use fcu::{Fcu, FcuConfig, force_error};
+use hover::{Hover, HoverConfig};
+use icu::{Icu, IcuConfig};
+use joints::{JointControl, JointControlConfig};
+use nalgebra::{Isometry3, Translation3, Vector3, Vector6};
+use record::{Recorder, Row};
+use sensors::{SensorConfig, Sensors, Truth};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+use vehicle_control::{VehicleControl, VehicleControlConfig};
+
+/// The frame the contact surface's file is given in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum SurfaceFrame {
+    /// The scan (camera) frame `S`, mapped into `W` by the scan's frames (`uvms synth`'s
+    /// `scene_mesh.ply`).
+    #[default]
+    Scan,
+    /// The world frame `W`.
+    World,
+}
+
+/// How the controllers' model differs from the plant's (`[sim.controller_model]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ModelMismatch {
+    /// Factor on every link's mass and inertia.
+    pub link_mass_scale: f64,
+    /// Factor on the links' drag and added-mass coefficients (0: no arm hydrodynamics in the
+    /// controller's model).
+    pub link_hydro_scale: f64,
+    /// Factor on the vehicle's damping.
+    pub vehicle_damping_scale: f64,
+}
+
+impl Default for ModelMismatch {
+    fn default() -> Self {
+        ModelMismatch {
+            link_mass_scale: 1.02,
+            link_hydro_scale: 0.8,
+            vehicle_damping_scale: 0.8,
+        }
+    }
+}
+
+impl ModelMismatch {
+    /// The controllers' model made from the plant's.
+    pub fn apply(&self, plant: &UvmsModel) -> UvmsModel {
+        let mut m = plant.clone();
+        for link in &mut m.arm.links {
+            link.mass *= self.link_mass_scale;
+            for row in &mut link.inertia {
+                for v in row {
+                    *v *= self.link_mass_scale;
+                }
+            }
+            if let Some(h) = &mut link.hydro {
+                h.drag_cross *= self.link_hydro_scale;
+                h.drag_axial *= self.link_hydro_scale;
+                h.added_mass_coefficient *= self.link_hydro_scale;
+                for v in &mut h.linear_damping {
+                    *v *= self.link_hydro_scale;
+                }
+            }
+        }
+        for v in m
+            .vehicle
+            .linear_damping
+            .iter_mut()
+            .chain(m.vehicle.quadratic_damping.iter_mut())
+        {
+            *v *= self.vehicle_damping_scale;
+        }
+        // The controllers do not know the sea current.
+        m.environment.current = [0.0; 3];
+        m
+    }
+
+    fn validate(&self) -> Result<()> {
+        for (name, v) in [
+            ("sim.controller_model.link_mass_scale", self.link_mass_scale),
+            ("sim.controller_model.link_hydro_scale", self.link_hydro_scale),
+            (
+                "sim.controller_model.vehicle_damping_scale",
+                self.vehicle_damping_scale,
+            ),
+        ] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err(Error::input(name, "must be a non-negative number"));
+            }
+        }
+        if self.link_mass_scale <= 0.0 {
+            return Err(Error::input(
+                "sim.controller_model.link_mass_scale",
+                "must be positive",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Scenario knobs and the ablation switches (`[sim.scenario]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Scenario {
+    /// Sea current in the world (NED), m/s.
+    pub current_m_s: [f64; 3],
+    /// The open loop of eq. (17) in the vehicle's stabilisation.
+    pub open_loop: bool,
+    /// The trajectory correction of eq. (18).
+    pub trajectory_correction: bool,
+    /// The force loop of eq. (14).
+    pub force_loop: bool,
+}
+
+impl Default for Scenario {
+    fn default() -> Self {
+        Scenario {
+            current_m_s: [0.0; 3],
+            open_loop: true,
+            trajectory_correction: true,
+            force_loop: true,
+        }
+    }
+}
+
+/// Waiting at the end of a dwell until the force has settled (the seed's advice for critical
+/// operations), `[sim.dwell]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DwellConfig {
+    /// The force counts as settled once within this of the setpoint, N...
+    pub tolerance_n: f64,
+    /// ...for this long, s.
+    pub hold_s: f64,
+    /// Longest extra wait before moving on anyway, s.
+    pub max_wait_s: f64,
+}
+
+impl Default for DwellConfig {
+    fn default() -> Self {
+        DwellConfig {
+            tolerance_n: 1.0,
+            hold_s: 0.5,
+            max_wait_s: 10.0,
+        }
+    }
+}
+
+/// The simulation's configuration (`[sim]` of a pipeline, or `uvms sim --config`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimConfig {
+    /// Seed of every random draw (sensor noise).
+    pub seed: u64,
+    /// The plant's model file (TOML); none: the built-in AUV300 + PUMA 560.
+    pub model: Option<PathBuf>,
+    /// The true surface the tool touches (PLY mesh).
+    pub surface: Option<PathBuf>,
+    /// The frame of `surface`.
+    pub surface_frame: SurfaceFrame,
+    /// Control rate, Hz.
+    pub control_rate_hz: f64,
+    /// Plant integration steps per control period.
+    pub plant_substeps: usize,
+    /// The plant's integrator.
+    pub integrator: Integrator,
+    /// Rate of the rows of `timeseries.csv`, Hz.
+    pub log_rate_hz: f64,
+    /// Time simulated after the trajectory's end, s.
+    pub tail_s: f64,
+    /// From this long after the first contact the force counts as settled (the window of
+    /// `force_settled_mean_n` and `force_rms_error_n`), s.
+    pub settle_time_s: f64,
+    /// Contact model.
+    pub contact: ContactConfig,
+    /// NS.
+    pub sensors: SensorConfig,
+    /// ICU.
+    pub icu: IcuConfig,
+    /// FCU.
+    pub force: FcuConfig,
+    /// Joint controllers.
+    pub joints: JointControlConfig,
+    /// AUV SS.
+    pub vehicle: VehicleControlConfig,
+    /// Hover-point search.
+    pub hover: HoverConfig,
+    /// Dwell until settled.
+    pub dwell: DwellConfig,
+    /// How the controllers' model differs from the plant's.
+    pub controller_model: ModelMismatch,
+    /// Current and ablations.
+    pub scenario: Scenario,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig {
+            seed: 1,
+            model: None,
+            surface: None,
+            surface_frame: SurfaceFrame::Scan,
+            control_rate_hz: 1000.0,
+            plant_substeps: 1,
+            integrator: Integrator::Rk4,
+            log_rate_hz: 100.0,
+            tail_s: 0.5,
+            settle_time_s: 1.5,
+            contact: ContactConfig::default(),
+            sensors: SensorConfig::default(),
+            icu: IcuConfig::default(),
+            force: FcuConfig::default(),
+            joints: JointControlConfig::default(),
+            vehicle: VehicleControlConfig::default(),
+            hover: HoverConfig::default(),
+            dwell: DwellConfig::default(),
+            controller_model: ModelMismatch::default(),
+            scenario: Scenario::default(),
+        }
+    }
+}
+
+impl SimConfig {
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the first bad field.
+    pub fn validate(&self) -> Result<()> {
+        for (name, v) in [
+            ("sim.control_rate_hz", self.control_rate_hz),
+            ("sim.log_rate_hz", self.log_rate_hz),
+        ] {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(Error::input(name, "must be a positive number"));
+            }
+        }
+        if self.log_rate_hz > self.control_rate_hz {
+            return Err(Error::input(
+                "sim.log_rate_hz",
+                "must not exceed sim.control_rate_hz",
+            ));
+        }
+        if !(1..=1000).contains(&self.plant_substeps) {
+            return Err(Error::input("sim.plant_substeps", "must be between 1 and 1000"));
+        }
+        for (name, v) in [
+            ("sim.tail_s", self.tail_s),
+            ("sim.settle_time_s", self.settle_time_s),
+        ] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err(Error::input(name, "must be a non-negative number"));
+            }
+        }
+        if !self.scenario.current_m_s.iter().all(|v| v.is_finite()) {
+            return Err(Error::input("sim.scenario.current_m_s", "must be finite"));
+        }
+        let d = &self.dwell;
+        let finite = [d.tolerance_n, d.hold_s, d.max_wait_s]
+            .iter()
+            .all(|v| v.is_finite());
+        if !(finite && d.tolerance_n > 0.0 && d.hold_s >= 0.0 && d.max_wait_s >= 0.0) {
+            return Err(Error::input(
+                "sim.dwell",
+                "tolerance_n must be positive, hold_s and max_wait_s non-negative",
+            ));
+        }
+        self.contact.validate()?;
+        self.sensors.validate()?;
+        self.icu.validate()?;
+        self.force.validate()?;
+        self.joints.validate()?;
+        self.vehicle.validate()?;
+        self.hover.validate()?;
+        self.controller_model.validate()
+    }
+}
+
+/// The figures of a run (DESIGN.md's `sim` summary keys, and more).
+#[derive(Debug, Clone, Serialize)]
+pub struct SimSummary {
+    /// The desired force in contact, N (the largest along the trajectory).
+    pub force_setpoint_n: f64,
+    /// Mean true force along `k` in the contact phase once settled, N.
+    pub force_settled_mean_n: f64,
+    /// Largest true force along `k`, N.
+    pub force_max_n: f64,
+    /// RMS of the true force's error along `k` in the contact phase once settled, N.
+    pub force_rms_error_n: f64,
+    /// Smallest true force along `k` in the contact phase once settled, N.
+    pub force_settled_min_n: f64,
+    /// Largest distance of the tool tip from where the control system wants it (`P* + ΔP*`), m.
+    pub tool_deviation_max_m: f64,
+    /// Largest distance of the tool tip from the planned path across `k` (along the surface), m.
+    pub tool_path_error_max_m: f64,
+    /// Largest distance of the vehicle from its stabilisation point, `‖r‖`, m.
+    pub auv_deviation_max_m: f64,
+    /// Largest rotation of the vehicle from its stabilisation attitude, rad.
+    pub attitude_deviation_max_rad: f64,
+    /// Time without contact after the first contact while force was demanded, s.
+    pub contact_lost_s: f64,
+    /// Time of the first contact, s (none: never touched).
+    pub first_contact_s: Option<f64>,
+    /// Largest error of the identified external joint moments, N·m.
+    pub moment_id_error_max_nm: f64,
+    /// Largest error of the identified force along `k` once settled, N.
+    pub force_id_error_max_n: f64,
+    /// Simulated seconds per wall-clock second.
+    pub realtime_factor: f64,
+    /// Simulated time, s.
+    pub simulated_s: f64,
+    /// Extra time spent at the end of the dwell waiting for the force to settle, s.
+    pub dwell_wait_s: f64,
+    /// Control periods in which the corrected tool pose had no IK solution (set-point held).
+    pub unreachable_steps: usize,
+    /// Fraction of control periods with the thrust command scaled down to the limits.
+    pub thrust_saturated_fraction: f64,
+    /// The stabilisation pose: position (m) and heading (deg).
+    pub hover_position_m: [f64; 3],
+    /// The stabilisation heading, degrees.
+    pub hover_yaw_deg: f64,
+    /// Worst-case manipulability `|det J|` along the trajectory at the hover point.
+    pub hover_manipulability: f64,
+    /// The ablation switches and the current of the run.
+    pub scenario: Scenario,
+}
+
+/// A finished run.
+#[derive(Debug, Clone)]
+pub struct SimOutput {
+    /// The logged time series.
+    pub rows: Vec<Row>,
+    /// The figures.
+    pub summary: SimSummary,
+    /// The stabilisation pose chosen.
+    pub hover: Hover,
+}
+
+/// Simulates the contact operation along `trajectory` (world frame) against the true `surface`
+/// (world frame) with the plant `plant_model`. `progress` is called with the fraction done.
+///
+/// # Errors
+/// [`Error::Input`] for a bad configuration, model or trajectory; [`Error::Failed`] (stage
+/// `hover`) if no stabilisation pose reaches the trajectory, (stage `sim`) if the simulation
+/// diverges, naming the time and the state.
+pub fn simulate(
+    trajectory: &Trajectory,
+    surface: &TriangleMesh,
+    plant_model: &UvmsModel,
+    cfg: &SimConfig,
+    progress: &mut dyn FnMut(f64),
+) -> Result<SimOutput> {
+    cfg.validate()?;
+    let (Some(first), Some(last)) = (trajectory.samples.first(), trajectory.samples.last()) else {
+        return Err(Error::input("trajectory", "has no samples"));
+    };
+    let (t0, t_end) = (first.t, last.t);
+    let mut plant_model = plant_model.clone();
+    plant_model.environment.current = cfg.scenario.current_m_s;
+    let ctrl_model = cfg.controller_model.apply(&plant_model);
+    let ctrl = Multibody::new(&ctrl_model)?;
+    let arm = &ctrl.arm;
+    let g = ctrl_model.environment.gravity;
+    let hover = hover::choose(arm, trajectory, &cfg.hover)?;
+    let h = hover.t_world_body;
+    let mut plant = Plant::new(&plant_model, State::at_rest(h, hover.q_start), cfg.integrator)?;
+    let allocator = Thrusters::new(&ctrl_model.thrusters)?;
+    let contact = Contact::new(surface, &cfg.contact)?;
+    let mut sensors = Sensors::new(&cfg.sensors, cfg.seed, h.translation.vector);
+    let mut icu = Icu::new(&cfg.icu);
+    let mut fcu = Fcu::new(&cfg.force);
+    let mut joints = JointControl::new(&cfg.joints, &hover.q_start);
+    let mut vc = VehicleControl::new(&cfg.vehicle, &h);
+
+    // The station was held before the run: the drives hold the arm's static load and the
+    // thrusters the static wrench of the vehicle and the arm.
+    let dt = 1.0 / cfg.control_rate_hz;
+    let at_rest = BaseMotion::on_vehicle(
+        arm,
+        &h.rotation,
+        &Vector6::zeros(),
+        &Vector6::zeros(),
+        g,
+        &Vector3::zeros(),
+    );
+    let zero = JointVector::zeros();
+    let static_id = arm.inverse_dynamics(&hover.q_start, &zero, &zero, &at_rest, None);
+    let mut m_hold = Measurements0::at(&hover, &static_id.tau_rigid);
+    let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
+    let tau_v0 = vc.wrench(&m_hold.read(), &ctrl.vehicle, g, &open0, 0.0);
+    plant.thrusters.hold(&allocator.allocate(&tau_v0).thrusts)?;
+    let first_eval = plant.system.accelerations(
+        &plant.state,
+        &Inputs {
+            tau_drive: static_id.tau,
+            body_wrench: plant.thrusters.wrench(),
+            f_env_on_tool: Force::ZERO,
+        },
+    )?;
+    m_hold.shaft = first_eval.shaft_torque;
+    let mut truth_prev = truth_of(&plant.state, &m_hold.shaft);
+
+    let force_setpoint = trajectory.samples.iter().map(|s| s.force).fold(0.0, f64::max);
+    let log_every = ((cfg.control_rate_hz / cfg.log_rate_hz).round() as usize).max(1);
+    let mut rec = Recorder::new(force_setpoint, cfg.settle_time_s);
+    let mut clock = t0;
+    let mut q_set = hover.q_start;
+    let mut m_ez_true_prev = JointVector::zeros();
+    let (mut dwell_wait, mut settled_for) = (0.0, 0.0);
+    let (mut unreachable, mut saturated) = (0usize, 0usize);
+    let wall = std::time::Instant::now();
+    let mut k = 0usize;
+    let sub_dt = dt / cfg.plant_substeps as f64;
+    loop {
+        let t = k as f64 * dt;
+        if clock > t_end + cfg.tail_s - 1e-12 {
+            break;
+        }
+        // NS: what the controllers know (of the state one period ago).
+        let meas = sensors.read(t, &truth_prev);
+        let omega = meas.omega;
+        let nu_est = Vector6::new(0.0, 0.0, 0.0, omega.x, omega.y, omega.z);
+        let base = BaseMotion::on_vehicle(
+            arm,
+            &meas.attitude,
+            &nu_est,
+            &Vector6::zeros(),
+            g,
+            &Vector3::zeros(),
+        );
+        // ICU.
+        let id = icu.identify(arm, &meas, &base, dt);
+        let r_w0 = meas.attitude * arm.t_body_base.rotation;
+        let f_imp_est = r_w0 * id.f_imp_base;
+        // The desired tool state.
+        let s = trajectory
+            .sample_at(clock)
+            .ok_or_else(|| Error::input("trajectory", "has no samples"))?;
+        // FCU.
+        let pressing = matches!(s.phase, Phase::Dwell | Phase::Contact);
+        let offset = if !cfg.scenario.force_loop {
+            0.0
+        } else if pressing {
+            fcu.update(force_error(s.force, &s.k, &f_imp_est), dt)
+        } else if s.phase == Phase::Retreat {
+            fcu.offset()
+        } else {
+            0.0
+        };
+        // TCU: eq. (18) and the IK.
+        let target = Isometry3::from_parts(
+            Translation3::from(s.position.coords + s.k * offset),
+            s.orientation,
+        );
+        let believed = if cfg.scenario.trajectory_correction {
+            tcu::vehicle_pose(&meas.position, &meas.attitude)
+        } else {
+            h
+        };
+        match tcu::set_point(arm, &tcu::tool_in_base(arm, &target, &believed), &q_set)? {
+            Some(q) => q_set = q,
+            None => unreachable += 1,
+        }
+        joints.follow(&q_set, dt);
+        let tau = joints.torque(arm, &meas.q, &meas.qd, &id.m_ez, &base, dt);
+        // AUV SS with the open loop of eq. (17).
+        let open = if cfg.scenario.open_loop {
+            let f_e = Force::new(-id.f_imp_base, Vector3::zeros());
+            let w = arm.inverse_dynamics(&meas.q, &meas.qd, &id.qdd, &base, Some(&f_e));
+            -arm.base_wrench_in_body(&w.wrench_on_base)
+        } else {
+            Force::ZERO
+        };
+        let tau_vehicle = vc.wrench(&meas, &ctrl.vehicle, g, &open, dt);
+        let alloc = allocator.allocate(&tau_vehicle);
+        if alloc.scale < 1.0 {
+            saturated += 1;
+        }
+        // The plant: contact against the true surface, then the step.
+        let state = plant.state;
+        let t_world_tool = plant.system.t_world_tool(&state);
+        let v_tool = plant.system.tool_velocity_world(&state);
+        let tip = t_world_tool.translation.vector;
+        let mut cs = contact.evaluate(&tip.into(), &v_tool.fixed_rows::<3>(0).into_owned());
+        let m_ez_true = external_moments(&plant.system, &state, &cs.wrench.lin);
+        if k.is_multiple_of(log_every) {
+            rec.push(Row::new(&record::RowInput {
+                t,
+                clock,
+                sample: &s,
+                offset,
+                state: &state,
+                hover: &h,
+                q_ref: &joints.q_ref,
+                tau: &tau,
+                m_ez_true: &m_ez_true_prev,
+                m_ez_id: &id.m_ez,
+                f_env_true: &cs.wrench.lin,
+                f_imp_est: &f_imp_est,
+                t_world_tool: &t_world_tool,
+                thrusts: plant.thrusters.thrusts(),
+                in_contact: cs.in_contact(),
+            }));
+        }
+        rec.observe(&record::Observation {
+            phase: s.phase,
+            t,
+            f_k_true: -s.k.dot(&cs.wrench.lin),
+            f_k_id: s.k.dot(&f_imp_est),
+            in_contact: cs.in_contact(),
+            m_ez_error: (id.m_ez - m_ez_true_prev).amax(),
+            deviation: (tip - target.translation.vector).norm(),
+            path_error: {
+                let d = tip - s.position.coords;
+                (d - s.k * s.k.dot(&d)).norm()
+            },
+            r: (state.t_world_body.translation.vector - h.translation.vector).norm(),
+            attitude: state.t_world_body.rotation.angle_to(&h.rotation),
+        });
+        let mut shaft = None;
+        for sub in 0..cfg.plant_substeps {
+            if sub > 0 {
+                let st = plant.state;
+                let tt = plant.system.t_world_tool(&st).translation.vector;
+                let vv = plant.system.tool_velocity_world(&st);
+                cs = contact.evaluate(&tt.into(), &vv.fixed_rows::<3>(0).into_owned());
+            }
+            let input = PlantInput {
+                tau_drive: tau,
+                thrust_cmd: &alloc.thrusts,
+                f_env_on_tool: cs.wrench,
+            };
+            let report = plant
+                .step(sub_dt, &input)
+                .map_err(|e| diverged(&e, t, &plant.state))?;
+            shaft.get_or_insert(report.accelerations.shaft_torque);
+        }
+        check_runaway(&plant.state, &h, t + dt)?;
+        truth_prev = truth_of(&state, &shaft.unwrap_or(m_hold.shaft));
+        m_ez_true_prev = m_ez_true;
+        // The trajectory's clock: it waits at the end of a dwell until the force has settled.
+        let next = clock + dt;
+        let leaving_dwell = s.phase == Phase::Dwell
+            && trajectory
+                .sample_at(next)
+                .is_some_and(|n| n.phase != Phase::Dwell);
+        let settled = (s.k.dot(&f_imp_est) - s.force).abs() < cfg.dwell.tolerance_n;
+        settled_for = if settled { settled_for + dt } else { 0.0 };
+        if leaving_dwell && settled_for < cfg.dwell.hold_s && dwell_wait < cfg.dwell.max_wait_s {
+            dwell_wait += dt;
+        } else {
+            clock = next;
+        }
+        k += 1;
+        if k.is_multiple_of(1000) {
+            progress(((clock - t0) / (t_end - t0 + cfg.tail_s).max(1e-9)).min(1.0));
+        }
+    }
+    let simulated = k as f64 * dt;
+    let wall_s = wall.elapsed().as_secs_f64();
+    let rpy = h.rotation.euler_angles();
+    let p = h.translation.vector;
+    let summary = rec.summary(SimSummaryExtras {
+        realtime_factor: if wall_s > 0.0 {
+            simulated / wall_s
+        } else {
+            f64::INFINITY
+        },
+        simulated_s: simulated,
+        dwell_wait_s: dwell_wait,
+        unreachable_steps: unreachable,
+        thrust_saturated_fraction: saturated as f64 / k.max(1) as f64,
+        hover_position_m: [p.x, p.y, p.z],
+        hover_yaw_deg: rpy.2.to_degrees(),
+        hover_manipulability: hover.manipulability,
+        scenario: cfg.scenario,
+    });
+    Ok(SimOutput {
+        rows: rec.into_rows(),
+        summary,
+        hover,
+    })
+}
+
+/// The parts of the summary the recorder does not see.
+#[derive(Debug, Clone, Copy)]
+pub struct SimSummaryExtras {
+    /// See [`SimSummary::realtime_factor`].
+    pub realtime_factor: f64,
+    /// See [`SimSummary::simulated_s`].
+    pub simulated_s: f64,
+    /// See [`SimSummary::dwell_wait_s`].
+    pub dwell_wait_s: f64,
+    /// See [`SimSummary::unreachable_steps`].
+    pub unreachable_steps: usize,
+    /// See [`SimSummary::thrust_saturated_fraction`].
+    pub thrust_saturated_fraction: f64,
+    /// See [`SimSummary::hover_position_m`].
+    pub hover_position_m: [f64; 3],
+    /// See [`SimSummary::hover_yaw_deg`].
+    pub hover_yaw_deg: f64,
+    /// See [`SimSummary::hover_manipulability`].
+    pub hover_manipulability: f64,
+    /// See [`SimSummary::scenario`].
+    pub scenario: Scenario,
+}
+
+/// The sensors' view of the held station before the run.
+struct Measurements0 {
+    hover: Hover,
+    shaft: JointVector,
+}
+
+impl Measurements0 {
+    fn at(hover: &Hover, shaft: &JointVector) -> Self {
+        Measurements0 {
+            hover: *hover,
+            shaft: *shaft,
+        }
+    }
+
+    fn read(&self) -> sensors::Measurements {
+        let h = &self.hover.t_world_body;
+        sensors::Measurements {
+            q: self.hover.q_start,
+            qd: JointVector::zeros(),
+            m_dz: self.shaft,
+            attitude: h.rotation,
+            omega: Vector3::zeros(),
+            position: h.translation.vector,
+            position_time: f64::NEG_INFINITY,
+        }
+    }
+}
+
+/// What the sensors read of `s` (with the shaft torques of its step).
+fn truth_of(s: &State, shaft: &JointVector) -> Truth {
+    Truth {
+        q: s.q,
+        qd: s.qd,
+        shaft_torque: *shaft,
+        attitude: s.t_world_body.rotation,
+        omega: Vector3::new(s.nu[3], s.nu[4], s.nu[5]),
+        position: s.t_world_body.translation.vector,
+    }
+}
+
+/// The true external joint moments of a tool-tip force `f_env` (world axes): `J_vᵀ F_imp`.
+fn external_moments(system: &Multibody, s: &State, f_env: &Vector3<f64>) -> JointVector {
+    let r_w0 = s.t_world_body.rotation * system.arm.t_body_base.rotation;
+    let f_imp_base = r_w0.inverse() * -f_env;
+    system.arm.jacobian(&s.q).fixed_rows::<3>(0).transpose() * f_imp_base
+}
+
+fn describe(s: &State) -> String {
+    let p = s.t_world_body.translation.vector;
+    format!(
+        "vehicle at [{:.3}, {:.3}, {:.3}] m, q = [{}] rad, q̇ = [{}] rad/s",
+        p.x,
+        p.y,
+        p.z,
+        s.q.iter()
+            .map(|v| format!("{v:.3}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        s.qd.iter()
+            .map(|v| format!("{v:.3}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
+}
+
+fn diverged(e: &Error, t: f64, s: &State) -> Error {
+    Error::failed(
+        "sim",
+        format!("{e} (at t = {t:.3} s, last finite state: {})", describe(s)),
+    )
+}
+
+/// A runaway (the state finite but far outside anything a hovering vehicle does) ends the run.
+fn check_runaway(s: &State, hover: &Isometry3<f64>, t: f64) -> Result<()> {
+    let r = (s.t_world_body.translation.vector - hover.translation.vector).norm();
+    let v = s.nu.fixed_rows::<3>(0).norm();
+    let w = s.nu.fixed_rows::<3>(3).norm();
+    let qd = s.qd.amax();
+    if r > 2.0 || v > 5.0 || w > 10.0 || qd > 20.0 {
+        return Err(Error::failed(
+            "sim",
+            format!(
+                "the simulation ran away at t = {t:.3} s (‖r‖ = {r:.3} m, ‖v‖ = {v:.2} m/s, ‖ω‖ = {w:.2} rad/s, max |q̇| = {qd:.2} rad/s): {}",
+                describe(s)
+            ),
+        ));
+    }
+    Ok(())
+}

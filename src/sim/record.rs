@@ -1,0 +1,468 @@
+//! What a run records: the time series (`timeseries.csv`), the figures of the summary, and the
+//! plots after the seed's Figures 6–8 and 12–15.
+//!
+//! # `timeseries.csv`
+//! One row per log period (100 Hz by default), SI units, world frame `W` (NED) unless named:
+//! `t_s` (simulated time), `clock_s` (the trajectory's clock, which stops while a dwell waits for
+//! the force), `phase`, `q1..q6` and `q1_ref..q6_ref` (rad), `tau1..tau6` (drive torques, N·m),
+//! `mez1_true..` and `mez1_id..` (external joint moments: true `J_vᵀ F_imp`, and identified
+//! `M_dz − M_wz`, N·m), `fex_true, fey_true, fez_true` and `fex_id..` (the surface's force on
+//! the tool `ᴳF_e` in the tool frame `G`, true and identified, N), `fk_true_n`, `fk_id_n` (the
+//! tool's force along `k`), `f_set_n`, `offset_m` (the FCU's `x̃`), `tool_x_m..` (tool tip),
+//! `e_x_m, e_y_m, e_z_m, e_m` (tool tip minus where the control system wants it, `P* + ΔP*`),
+//! `r_x_m, r_y_m, r_z_m, r_m` (vehicle minus its stabilisation point), `phi_rad, theta_rad,
+//! psi_rad` (the vehicle's attitude relative to its stabilisation attitude, roll–pitch–yaw),
+//! `thrust1_n..`, `contact` (1 in contact).
+
+use super::{Scenario, SimSummary, SimSummaryExtras};
+use crate::arm::JointVector;
+use crate::error::{Error, Result};
+use crate::multibody::State;
+use crate::plot::{Figure, Panel, Series};
+use crate::trajectory::{Phase, Sample};
+use nalgebra::{Isometry3, Vector3};
+use std::io::Write;
+
+/// One row of the time series.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    /// Simulated time, s.
+    pub t: f64,
+    /// The trajectory's clock, s.
+    pub clock: f64,
+    /// The trajectory's phase.
+    pub phase: Phase,
+    /// Joint angles, rad.
+    pub q: JointVector,
+    /// Filtered joint references, rad.
+    pub q_ref: JointVector,
+    /// Drive torques commanded, N·m.
+    pub tau: JointVector,
+    /// True external moments, N·m.
+    pub m_ez_true: JointVector,
+    /// Identified external moments, N·m.
+    pub m_ez_id: JointVector,
+    /// The surface's force on the tool in `G`, true, N.
+    pub fe_true: Vector3<f64>,
+    /// The same, identified, N.
+    pub fe_id: Vector3<f64>,
+    /// True force along `k`, N.
+    pub f_k_true: f64,
+    /// Identified force along `k`, N.
+    pub f_k_id: f64,
+    /// Desired force, N.
+    pub f_set: f64,
+    /// The FCU's offset, m.
+    pub offset: f64,
+    /// Tool tip, m.
+    pub tool: Vector3<f64>,
+    /// Tool deviation `e`, m.
+    pub e: Vector3<f64>,
+    /// Vehicle deviation `r`, m.
+    pub r: Vector3<f64>,
+    /// Roll, pitch, yaw relative to the stabilisation attitude, rad.
+    pub rpy: [f64; 3],
+    /// Thrusts, N.
+    pub thrusts: Vec<f64>,
+    /// In contact.
+    pub contact: bool,
+}
+
+/// What a row is made from.
+#[derive(Debug, Clone, Copy)]
+pub struct RowInput<'a> {
+    /// Simulated time, s.
+    pub t: f64,
+    /// The trajectory's clock, s.
+    pub clock: f64,
+    /// The desired state.
+    pub sample: &'a Sample,
+    /// The FCU's offset, m.
+    pub offset: f64,
+    /// The plant's state.
+    pub state: &'a State,
+    /// The stabilisation pose.
+    pub hover: &'a Isometry3<f64>,
+    /// Joint references.
+    pub q_ref: &'a JointVector,
+    /// Drive torques.
+    pub tau: &'a JointVector,
+    /// True external moments.
+    pub m_ez_true: &'a JointVector,
+    /// Identified external moments.
+    pub m_ez_id: &'a JointVector,
+    /// The surface's force on the tool (world), true.
+    pub f_env_true: &'a Vector3<f64>,
+    /// The tool's force on the surface (world), identified.
+    pub f_imp_est: &'a Vector3<f64>,
+    /// The true tool pose.
+    pub t_world_tool: &'a Isometry3<f64>,
+    /// Thrusts, N.
+    pub thrusts: &'a [f64],
+    /// In contact.
+    pub in_contact: bool,
+}
+
+impl Row {
+    /// A row from the loop's quantities.
+    pub fn new(i: &RowInput) -> Self {
+        let s = i.sample;
+        let r_g = i.t_world_tool.rotation.inverse();
+        let tip = i.t_world_tool.translation.vector;
+        let rel = i.hover.rotation.inverse() * i.state.t_world_body.rotation;
+        let (phi, theta, psi) = rel.euler_angles();
+        Row {
+            t: i.t,
+            clock: i.clock,
+            phase: s.phase,
+            q: i.state.q,
+            q_ref: *i.q_ref,
+            tau: *i.tau,
+            m_ez_true: *i.m_ez_true,
+            m_ez_id: *i.m_ez_id,
+            fe_true: r_g * i.f_env_true,
+            fe_id: r_g * -i.f_imp_est,
+            f_k_true: -s.k.dot(i.f_env_true),
+            f_k_id: s.k.dot(i.f_imp_est),
+            f_set: if matches!(s.phase, Phase::Dwell | Phase::Contact) {
+                s.force
+            } else {
+                0.0
+            },
+            offset: i.offset,
+            tool: tip,
+            e: tip - (s.position.coords + s.k * i.offset),
+            r: i.state.t_world_body.translation.vector - i.hover.translation.vector,
+            rpy: [phi, theta, psi],
+            thrusts: i.thrusts.to_vec(),
+            contact: i.in_contact,
+        }
+    }
+}
+
+/// One control period's figures, for the summary.
+#[derive(Debug, Clone, Copy)]
+pub struct Observation {
+    /// The trajectory's phase.
+    pub phase: Phase,
+    /// Simulated time, s.
+    pub t: f64,
+    /// True force along `k`, N.
+    pub f_k_true: f64,
+    /// Identified force along `k`, N.
+    pub f_k_id: f64,
+    /// In contact.
+    pub in_contact: bool,
+    /// Largest error of the identified external moments, N·m.
+    pub m_ez_error: f64,
+    /// Tool deviation `‖e‖`, m.
+    pub deviation: f64,
+    /// Distance from the planned path across `k`, m.
+    pub path_error: f64,
+    /// Vehicle deviation `‖r‖`, m.
+    pub r: f64,
+    /// Vehicle attitude deviation, rad.
+    pub attitude: f64,
+}
+
+/// Collects the rows and the running figures.
+#[derive(Debug, Clone)]
+pub struct Recorder {
+    rows: Vec<Row>,
+    setpoint: f64,
+    settle_time: f64,
+    first_contact: Option<f64>,
+    force_max: f64,
+    settled: (f64, f64, usize, f64),
+    force_id_error: f64,
+    lost: f64,
+    dt: Option<(f64, f64)>,
+    m_ez_error: f64,
+    deviation: f64,
+    path_error: f64,
+    r: f64,
+    attitude: f64,
+}
+
+impl Recorder {
+    /// A recorder for a run with the desired force `setpoint`, settled `settle_time` after the
+    /// first contact.
+    pub fn new(setpoint: f64, settle_time: f64) -> Self {
+        Recorder {
+            rows: Vec::new(),
+            setpoint,
+            settle_time,
+            first_contact: None,
+            force_max: 0.0,
+            settled: (0.0, 0.0, 0, f64::INFINITY),
+            force_id_error: 0.0,
+            lost: 0.0,
+            dt: None,
+            m_ez_error: 0.0,
+            deviation: 0.0,
+            path_error: 0.0,
+            r: 0.0,
+            attitude: 0.0,
+        }
+    }
+
+    /// Adds a row.
+    pub fn push(&mut self, row: Row) {
+        self.rows.push(row);
+    }
+
+    /// Takes one control period into the figures.
+    pub fn observe(&mut self, o: &Observation) {
+        let dt = match self.dt {
+            Some((t_prev, _)) => o.t - t_prev,
+            None => 0.0,
+        };
+        self.dt = Some((o.t, dt));
+        if o.in_contact && self.first_contact.is_none() {
+            self.first_contact = Some(o.t);
+        }
+        let pressing = matches!(o.phase, Phase::Dwell | Phase::Contact);
+        if let Some(t1) = self.first_contact {
+            if pressing && !o.in_contact {
+                self.lost += dt;
+            }
+            if o.phase == Phase::Contact && o.t >= t1 + self.settle_time {
+                let e = o.f_k_true - self.setpoint;
+                self.settled.0 += o.f_k_true;
+                self.settled.1 += e * e;
+                self.settled.2 += 1;
+                self.settled.3 = self.settled.3.min(o.f_k_true);
+                self.force_id_error = self.force_id_error.max((o.f_k_id - o.f_k_true).abs());
+            }
+        }
+        self.force_max = self.force_max.max(o.f_k_true);
+        self.m_ez_error = self.m_ez_error.max(o.m_ez_error);
+        self.deviation = self.deviation.max(o.deviation);
+        self.path_error = self.path_error.max(o.path_error);
+        self.r = self.r.max(o.r);
+        self.attitude = self.attitude.max(o.attitude);
+    }
+
+    /// The summary.
+    pub fn summary(&self, x: SimSummaryExtras) -> SimSummary {
+        let (sum, sum2, n, min) = self.settled;
+        let nf = n.max(1) as f64;
+        SimSummary {
+            force_setpoint_n: self.setpoint,
+            force_settled_mean_n: if n > 0 { sum / nf } else { f64::NAN },
+            force_max_n: self.force_max,
+            force_rms_error_n: if n > 0 { (sum2 / nf).sqrt() } else { f64::NAN },
+            force_settled_min_n: if n > 0 { min } else { f64::NAN },
+            tool_deviation_max_m: self.deviation,
+            tool_path_error_max_m: self.path_error,
+            auv_deviation_max_m: self.r,
+            attitude_deviation_max_rad: self.attitude,
+            contact_lost_s: self.lost,
+            first_contact_s: self.first_contact,
+            moment_id_error_max_nm: self.m_ez_error,
+            force_id_error_max_n: self.force_id_error,
+            realtime_factor: x.realtime_factor,
+            simulated_s: x.simulated_s,
+            dwell_wait_s: x.dwell_wait_s,
+            unreachable_steps: x.unreachable_steps,
+            thrust_saturated_fraction: x.thrust_saturated_fraction,
+            hover_position_m: x.hover_position_m,
+            hover_yaw_deg: x.hover_yaw_deg,
+            hover_manipulability: x.hover_manipulability,
+            scenario: x.scenario,
+        }
+    }
+
+    /// The rows.
+    pub fn into_rows(self) -> Vec<Row> {
+        self.rows
+    }
+}
+
+/// Writes `timeseries.csv` (the module docs give the columns).
+///
+/// # Errors
+/// [`Error::Failed`] if the writer fails.
+pub fn write_csv(rows: &[Row], w: &mut dyn Write) -> Result<()> {
+    let io = |e: std::io::Error| Error::failed("write timeseries.csv", e);
+    let n_thr = rows.first().map_or(0, |r| r.thrusts.len());
+    let mut head: Vec<String> = vec!["t_s".into(), "clock_s".into(), "phase".into()];
+    for prefix in ["q{}", "q{}_ref", "tau{}", "mez{}_true", "mez{}_id"] {
+        head.extend((1..=6).map(|i| prefix.replace("{}", &i.to_string())));
+    }
+    for s in ["true", "id"] {
+        head.extend(["fex", "fey", "fez"].iter().map(|c| format!("{c}_{s}")));
+    }
+    for c in [
+        "fk_true_n",
+        "fk_id_n",
+        "f_set_n",
+        "offset_m",
+        "tool_x_m",
+        "tool_y_m",
+        "tool_z_m",
+        "e_x_m",
+        "e_y_m",
+        "e_z_m",
+        "e_m",
+        "r_x_m",
+        "r_y_m",
+        "r_z_m",
+        "r_m",
+        "phi_rad",
+        "theta_rad",
+        "psi_rad",
+    ] {
+        head.push(c.into());
+    }
+    head.extend((1..=n_thr).map(|i| format!("thrust{i}_n")));
+    head.push("contact".into());
+    writeln!(
+        w,
+        "# uvms sim time series: SI units, world frame W (NED) unless named; see README"
+    )
+    .map_err(io)?;
+    writeln!(w, "{}", head.join(",")).map_err(io)?;
+    for r in rows {
+        let mut v: Vec<f64> = vec![r.t, r.clock];
+        for j in [&r.q, &r.q_ref, &r.tau, &r.m_ez_true, &r.m_ez_id] {
+            v.extend(j.iter());
+        }
+        v.extend(r.fe_true.iter());
+        v.extend(r.fe_id.iter());
+        v.extend([r.f_k_true, r.f_k_id, r.f_set, r.offset]);
+        v.extend(r.tool.iter());
+        v.extend(r.e.iter());
+        v.push(r.e.norm());
+        v.extend(r.r.iter());
+        v.push(r.r.norm());
+        v.extend(r.rpy);
+        v.extend(r.thrusts.iter());
+        let nums: Vec<String> = v.iter().map(|x| format!("{x:.6e}")).collect();
+        let (t, rest) = nums.split_at(2);
+        writeln!(
+            w,
+            "{},{},{},{},{}",
+            t[0],
+            t[1],
+            r.phase.as_str(),
+            rest.join(","),
+            u8::from(r.contact)
+        )
+        .map_err(io)?;
+    }
+    Ok(())
+}
+
+fn series(rows: &[Row], label: &str, f: impl Fn(&Row) -> f64) -> Series {
+    Series {
+        label: label.to_string(),
+        x: rows.iter().map(|r| r.t).collect(),
+        y: rows.iter().map(f).collect(),
+    }
+}
+
+/// The run's figures after the seed's: `joint_moments` (Figures 6 and 12: external moments,
+/// true and identified), `force` (Figures 7 and 13: the force components in `G` and the force
+/// along `k` against its setpoint), `deviations` (Figures 8 and 15: `‖r‖`, `‖e‖`, φ θ ψ) and
+/// `joints` (Figure 14: joint coordinates and their references).
+pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)> {
+    let tag = if scenario.open_loop && scenario.trajectory_correction && scenario.force_loop {
+        String::new()
+    } else {
+        format!(
+            " (open loop {}, correction {}, force loop {})",
+            on(scenario.open_loop),
+            on(scenario.trajectory_correction),
+            on(scenario.force_loop)
+        )
+    };
+    let moments = (0..2)
+        .map(|g| Panel {
+            title: format!("External joint moments, joints {}–{}", 3 * g + 1, 3 * g + 3),
+            y_label: "N·m".into(),
+            series: (3 * g..3 * g + 3)
+                .flat_map(|j| {
+                    [
+                        series(rows, &format!("M{}ez true", j + 1), move |r| r.m_ez_true[j]),
+                        series(rows, &format!("M{}ez identified", j + 1), move |r| r.m_ez_id[j]),
+                    ]
+                })
+                .collect(),
+        })
+        .collect();
+    let comps = ["x", "y", "z"];
+    let force = vec![
+        Panel {
+            title: "Force on the tool, tool frame G (true)".into(),
+            y_label: "N".into(),
+            series: (0..3)
+                .map(|c| series(rows, &format!("F{} true", comps[c]), move |r| r.fe_true[c]))
+                .collect(),
+        },
+        Panel {
+            title: "Force on the tool, tool frame G (identified)".into(),
+            y_label: "N".into(),
+            series: (0..3)
+                .map(|c| series(rows, &format!("F{} identified", comps[c]), move |r| r.fe_id[c]))
+                .collect(),
+        },
+        Panel {
+            title: "Force along k".into(),
+            y_label: "N".into(),
+            series: vec![
+                series(rows, "true", |r| r.f_k_true),
+                series(rows, "identified", |r| r.f_k_id),
+                series(rows, "desired", |r| r.f_set),
+            ],
+        },
+    ];
+    let deviations = vec![
+        Panel {
+            title: "Deviations of the vehicle ‖r‖ and the tool ‖e‖".into(),
+            y_label: "m".into(),
+            series: vec![
+                series(rows, "‖r‖", |r| r.r.norm()),
+                series(rows, "‖e‖", |r| r.e.norm()),
+            ],
+        },
+        Panel {
+            title: "Vehicle attitude".into(),
+            y_label: "rad".into(),
+            series: ["φ", "θ", "ψ"]
+                .iter()
+                .enumerate()
+                .map(|(c, n)| series(rows, n, move |r| r.rpy[c]))
+                .collect(),
+        },
+    ];
+    let joints = (0..2)
+        .map(|g| Panel {
+            title: format!("Joint coordinates {}–{}", 3 * g + 1, 3 * g + 3),
+            y_label: "rad".into(),
+            series: (3 * g..3 * g + 3)
+                .flat_map(|j| {
+                    [
+                        series(rows, &format!("q{}", j + 1), move |r| r.q[j]),
+                        series(rows, &format!("q{}*", j + 1), move |r| r.q_ref[j]),
+                    ]
+                })
+                .collect(),
+        })
+        .collect();
+    let fig = |title: &str, panels| Figure {
+        title: format!("{title}{tag}"),
+        x_label: "t, s".into(),
+        panels,
+    };
+    vec![
+        ("joint_moments", fig("Joint moments", moments)),
+        ("force", fig("Contact force", force)),
+        ("deviations", fig("Vehicle and tool deviations", deviations)),
+        ("joints", fig("Joint coordinates", joints)),
+    ]
+}
+
+fn on(b: bool) -> &'static str {
+    if b { "on" } else { "off" }
+}

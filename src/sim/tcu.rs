@@ -1,0 +1,74 @@
+//! TCU, the trajectory correction unit of Figure 4: eq. (18).
+//!
+//! The desired tool pose (`P*`, `X*_G`, `Y*_G` in the world `W`, plus the FCU's `ΔP* = x̃ k`)
+//! is expressed in the vehicle frame `C` with the vehicle's *measured* displacement `r` (the
+//! delayed vision fix) and attitude `ᴼ_C R` (the gyros):
+//! `ᶜP* = ᴼ_C Rᵀ (P* − r)`, `ᶜX*_G = ᴼ_C Rᵀ X*_G`, `ᶜY*_G = ᴼ_C Rᵀ Y*_G`,
+//! then in the arm's base frame, and the analytic inverse kinematics gives the joint set-points
+//! (the solution nearest the previous set-point; no Jacobian inverse). With the correction
+//! switched off (an ablation) the vehicle is assumed to sit at its stabilisation point.
+
+use crate::arm::{Arm, JointVector};
+use crate::error::Result;
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+
+/// The desired tool pose in the arm's base frame (eq. 18), from the desired pose in the world
+/// and the vehicle pose the controller believes (`t_world_body`).
+pub fn tool_in_base(
+    arm: &Arm,
+    t_world_tool: &Isometry3<f64>,
+    t_world_body: &Isometry3<f64>,
+) -> Isometry3<f64> {
+    (t_world_body * arm.t_body_base).inverse() * t_world_tool
+}
+
+/// The vehicle pose from a position fix and an attitude.
+pub fn vehicle_pose(position: &Vector3<f64>, attitude: &UnitQuaternion<f64>) -> Isometry3<f64> {
+    Isometry3::from_parts(Translation3::from(*position), *attitude)
+}
+
+/// Joint set-points for the tool pose `t_base_tool`: the IK solution nearest `q_prev`, or
+/// `None` if the pose is out of reach within the joint limits.
+///
+/// # Errors
+/// As [`Arm::ik`] (an arm not of the PUMA class, a non-finite pose).
+pub fn set_point(
+    arm: &Arm,
+    t_base_tool: &Isometry3<f64>,
+    q_prev: &JointVector,
+) -> Result<Option<JointVector>> {
+    Ok(arm.ik(t_base_tool, q_prev)?.nearest().copied())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::UvmsModel;
+    use crate::multibody::{Multibody, State};
+
+    /// A vehicle displaced by r and turned by R: the corrected set-point puts the tool back on
+    /// the same world pose, exactly.
+    #[test]
+    fn correction_keeps_the_tool_on_its_world_pose() {
+        let mb = Multibody::new(&UvmsModel::default()).unwrap();
+        let q0 = JointVector::new(0.1, 0.9, -2.0, 0.2, 0.6, -0.1);
+        let home = Isometry3::identity();
+        let target = mb.t_world_tool(&State::at_rest(home, q0));
+        let moved = vehicle_pose(
+            &Vector3::new(0.02, -0.015, 0.01),
+            &UnitQuaternion::from_euler_angles(0.02, -0.01, 0.03),
+        );
+        let q = set_point(&mb.arm, &tool_in_base(&mb.arm, &target, &moved), &q0)
+            .unwrap()
+            .unwrap();
+        let reached = mb.t_world_tool(&State::at_rest(moved, q));
+        assert!((reached.translation.vector - target.translation.vector).norm() < 1e-9);
+        assert!(reached.rotation.angle_to(&target.rotation) < 1e-9);
+        // Without the correction the tool is off by about the displacement.
+        let q_uncorrected = set_point(&mb.arm, &tool_in_base(&mb.arm, &target, &home), &q0)
+            .unwrap()
+            .unwrap();
+        let off = mb.t_world_tool(&State::at_rest(moved, q_uncorrected));
+        assert!((off.translation.vector - target.translation.vector).norm() > 0.02);
+    }
+}
