@@ -1195,27 +1195,44 @@ fn png_chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
     out.extend_from_slice(&(!crc32_update(crc32_update(!0, kind), data)).to_be_bytes());
 }
 
-/// `rgb` (`w` × `h`, rows top to bottom) as a PNG: filter 0 on every row, one IDAT holding a
-/// zlib stream of stored deflate blocks.
+/// `rgb` (`w` × `h`, rows top to bottom) as a PNG: each row filtered with whichever of None, Sub
+/// and Up gives the smallest sum of absolute (signed) byte values, the usual heuristic; one IDAT
+/// holding a zlib stream of one [`deflate`] block.
 fn encode_png(w: usize, h: usize, rgb: &[u8]) -> Vec<u8> {
     let row = w * 3;
     let mut raw = Vec::with_capacity((row + 1) * h);
+    let zeros = vec![0; row];
+    let (mut prior, mut trial, mut best) = (&zeros[..], Vec::new(), Vec::new());
     for line in rgb.chunks_exact(row) {
-        raw.push(0);
-        raw.extend_from_slice(line);
+        let (mut best_kind, mut best_cost) = (0, u64::MAX);
+        for kind in [0u8, 1, 2, 4].into_iter().filter(|&k| {
+            let pf = knob("PF", 9);
+            match pf {
+                9 => true,
+                8 => k == 0 || k == 2,
+                7 => k != 4,
+                _ => k as usize == pf,
+            }
+        }) {
+            filter_row(kind, line, prior, &mut trial);
+            let cost = if knob("CO", 0) == 0 {
+                trial.iter().map(|&b| u64::from((b as i8).unsigned_abs())).sum()
+            } else {
+                (3..trial.len()).filter(|&i| trial[i] != trial[i - 3]).count() as u64 * 1000
+                    + u64::from(kind != 0)
+            };
+            if cost < best_cost {
+                (best_kind, best_cost) = (kind, cost);
+                std::mem::swap(&mut trial, &mut best);
+            }
+        }
+        raw.push(best_kind);
+        raw.extend_from_slice(&best);
+        prior = line;
     }
-    let mut z = Vec::with_capacity(raw.len() + raw.len() / 65_535 * 5 + 16);
     // CMF: deflate, 32 KiB window; FLG: no dictionary, check bits making 0x7801 a multiple of 31.
-    z.extend_from_slice(&[0x78, 0x01]);
-    let mut blocks = raw.chunks(65_535).peekable();
-    while let Some(block) = blocks.next() {
-        // BFINAL on the last, BTYPE 00 (stored); the header byte leaves the stream byte-aligned.
-        z.push(u8::from(blocks.peek().is_none()));
-        let len = block.len() as u16;
-        z.extend_from_slice(&len.to_le_bytes());
-        z.extend_from_slice(&(!len).to_le_bytes());
-        z.extend_from_slice(block);
-    }
+    let mut z = vec![0x78, 0x01];
+    z.extend_from_slice(&deflate(&raw, row + 1));
     z.extend_from_slice(&adler32(&raw).to_be_bytes());
 
     let mut ihdr = [0u8; 13];
@@ -1229,6 +1246,221 @@ fn encode_png(w: usize, h: usize, rgb: &[u8]) -> Vec<u8> {
     png_chunk(&mut out, b"IDAT", &z);
     png_chunk(&mut out, b"IEND", &[]);
     out
+}
+
+/// `line` (3 bytes per pixel) under PNG filter `kind`, 0 (None), 1 (Sub: minus the byte one
+/// pixel left) or 2 (Up: minus the byte above, in `prior`), written over `out`.
+fn knob(n: &str, d: usize) -> usize {
+    std::env::var(n).ok().and_then(|v| v.parse().ok()).unwrap_or(d)
+}
+fn filter_row(kind: u8, line: &[u8], prior: &[u8], out: &mut Vec<u8>) {
+    out.clear();
+    out.extend(line.iter().enumerate().map(|(i, &x)| match kind {
+        1 if i >= 3 => x.wrapping_sub(line[i - 3]),
+        2 => x.wrapping_sub(prior[i]),
+        4 => {
+            let (a, b, c) = if i >= 3 {
+                (line[i - 3], prior[i], prior[i - 3])
+            } else {
+                (0, prior[i], 0)
+            };
+            let p = i16::from(a) + i16::from(b) - i16::from(c);
+            let (pa, pb, pc) = (
+                (p - i16::from(a)).abs(),
+                (p - i16::from(b)).abs(),
+                (p - i16::from(c)).abs(),
+            );
+            x.wrapping_sub(if pa <= pb && pa <= pc {
+                a
+            } else if pb <= pc {
+                b
+            } else {
+                c
+            })
+        }
+        _ => x,
+    }));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Deflate (RFC 1951): LZ77 matches over a 32 KiB window, fixed Huffman codes
+// ---------------------------------------------------------------------------------------------
+
+const WINDOW: usize = 1 << 15;
+const MIN_MATCH: usize = 3;
+const MAX_MATCH: usize = 258;
+const HASH_BITS: u32 = 15;
+/// Candidates examined per position: the cap that keeps long runs of one byte linear.
+const MAX_CHAIN: usize = 48;
+/// Empty slot in the hash chains.
+const NONE: u32 = u32::MAX;
+/// Length codes 257..=285: shortest length and extra bits (§3.2.5).
+const LEN_BASE: [u16; 29] = [
+    3, 4, 5, 6, 7, 8, 9, 10, 11, 13, 15, 17, 19, 23, 27, 31, 35, 43, 51, 59, 67, 83, 99, 115, 131, 163, 195,
+    227, 258,
+];
+const LEN_EXTRA: [u8; 29] = [
+    0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 0,
+];
+/// Distance codes 0..=29: shortest distance and extra bits.
+const DIST_BASE: [u16; 30] = [
+    1, 2, 3, 4, 5, 7, 9, 13, 17, 25, 33, 49, 65, 97, 129, 193, 257, 385, 513, 769, 1025, 1537, 2049, 3073,
+    4097, 6145, 8193, 12289, 16385, 24577,
+];
+const DIST_EXTRA: [u8; 30] = [
+    0, 0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12, 12, 13, 13,
+];
+
+/// `data` as a raw deflate stream (no zlib wrapper): one final block with the fixed Huffman codes
+/// (BTYPE 01), of literals and of the longest match among the last [`MAX_CHAIN`] earlier
+/// positions with the same 3-byte hash, taken lazily (a literal first when the match at the next
+/// byte is longer).
+fn deflate(data: &[u8], row: usize) -> Vec<u8> {
+    let mut out = BitWriter::default();
+    out.put(0b011, 3); // BFINAL = 1, BTYPE = 01.
+    let mut m = Matcher {
+        head: vec![NONE; 1 << HASH_BITS],
+        prev: vec![NONE; WINDOW],
+        row,
+    };
+    let mut i = 0;
+    let mut here = m.find(data, 0);
+    while i < data.len() {
+        m.insert(data, i);
+        let next = m.find(data, i + 1);
+        if here.0 < MIN_MATCH || (knob("LZ", 1) == 1 && next.0 > here.0) {
+            out.symbol(u16::from(data[i]));
+            (i, here) = (i + 1, next);
+            continue;
+        }
+        out.copy(here.0, here.1);
+        for j in i + 1..i + here.0 {
+            m.insert(data, j);
+        }
+        i += here.0;
+        here = m.find(data, i);
+    }
+    out.symbol(256);
+    out.finish()
+}
+
+/// Hash chains: `head[h]` is the latest position whose next 3 bytes hash to `h`, `prev[p % WINDOW]`
+/// the one before `p` with the same hash.
+struct Matcher {
+    head: Vec<u32>,
+    prev: Vec<u32>,
+    row: usize,
+}
+
+impl Matcher {
+    fn hash(data: &[u8], i: usize) -> usize {
+        let v = u32::from_le_bytes([data[i], data[i + 1], data[i + 2], 0]);
+        (v.wrapping_mul(0x9E37_79B1) >> (32 - HASH_BITS)) as usize
+    }
+
+    fn insert(&mut self, data: &[u8], i: usize) {
+        if i + MIN_MATCH <= data.len() {
+            let h = Self::hash(data, i);
+            self.prev[i % WINDOW] = self.head[h];
+            self.head[h] = i as u32;
+        }
+    }
+
+    /// The longest match `(length, distance)` for `data[i..]` among the chained positions
+    /// (inserted up to `i - 1`), or `(0, 0)` if none reaches [`MIN_MATCH`].
+    fn find(&self, data: &[u8], i: usize) -> (usize, usize) {
+        let max = data.len().saturating_sub(i).min(MAX_MATCH);
+        if max < MIN_MATCH {
+            return (0, 0);
+        }
+        let mut best = (0, 0);
+        // Whether `c` gives a longer match; true once no longer one is possible.
+        let mut longer = |c: usize| {
+            let probe = best.0.min(max - 1);
+            if data[c + probe] == data[i + probe] {
+                let same = data[c..c + max].iter().zip(&data[i..i + max]);
+                let len = same.take_while(|(a, b)| a == b).count();
+                if len > best.0 {
+                    best = (len, i - c);
+                }
+            }
+            best.0 == max
+        };
+        let mut cand = self.head[Self::hash(data, i)];
+        for _ in 0..knob("CH", MAX_CHAIN) {
+            // Positions come newest first; a slot older than the window may have been reused.
+            if cand == NONE || i - cand as usize > WINDOW {
+                break;
+            }
+            if longer(cand as usize) {
+                break;
+            }
+            cand = self.prev[cand as usize % WINDOW];
+        }
+        // Last, so that a tie goes to the nearer match: the same column one row up, which the
+        // chain rarely reaches past the positions of the white runs in between.
+        if knob("ROW", 1) == 1 && (1..=WINDOW).contains(&self.row) && i >= self.row {
+            longer(i - self.row);
+        }
+        if best.0 >= MIN_MATCH { best } else { (0, 0) }
+    }
+}
+
+/// Bits packed least significant first, as deflate stores them.
+#[derive(Default)]
+struct BitWriter {
+    out: Vec<u8>,
+    acc: u64,
+    n: u32,
+}
+
+impl BitWriter {
+    /// The low `n` bits of `v`, least significant first (extra bits, headers).
+    fn put(&mut self, v: u32, n: u32) {
+        self.acc |= u64::from(v) << self.n;
+        self.n += n;
+        while self.n >= 8 {
+            self.out.push(self.acc as u8);
+            (self.acc, self.n) = (self.acc >> 8, self.n - 8);
+        }
+    }
+
+    /// An `n`-bit Huffman code, which deflate stores most significant bit first.
+    fn code(&mut self, code: u32, n: u32) {
+        self.put(code.reverse_bits() >> (32 - n), n);
+    }
+
+    /// Literal/length symbol `s` (0..=287) in the fixed code of §3.2.6.
+    fn symbol(&mut self, s: u16) {
+        let s = u32::from(s);
+        match s {
+            0..=143 => self.code(0x30 + s, 8),
+            144..=255 => self.code(0x190 + s - 144, 9),
+            256..=279 => self.code(s - 256, 7),
+            _ => self.code(0xC0 + s - 280, 8),
+        }
+    }
+
+    /// A back-reference: `len` (3..=258) bytes from `dist` (1..=32768) bytes back.
+    fn copy(&mut self, len: usize, dist: usize) {
+        let l = LEN_BASE.partition_point(|&b| usize::from(b) <= len) - 1;
+        self.symbol(257 + l as u16);
+        self.put((len - usize::from(LEN_BASE[l])) as u32, u32::from(LEN_EXTRA[l]));
+        let d = DIST_BASE.partition_point(|&b| usize::from(b) <= dist) - 1;
+        self.code(d as u32, 5);
+        self.put(
+            (dist - usize::from(DIST_BASE[d])) as u32,
+            u32::from(DIST_EXTRA[d]),
+        );
+    }
+
+    /// The bytes, the last one padded with zeros.
+    fn finish(mut self) -> Vec<u8> {
+        if self.n > 0 {
+            self.out.push(self.acc as u8);
+        }
+        self.out
+    }
 }
 
 #[cfg(test)]
@@ -1558,10 +1790,13 @@ mod tests {
                 y_label: "N m".into(),
                 series: (0..3)
                     .map(|s| {
-                        let (a, f) = (1.0 + f64::from(p + s), 0.3 + 0.2 * f64::from(s));
+                        let (a, f) = (1.0 + f64::from(p + s), 0.2 + 0.15 * f64::from(p + s));
                         let y = x
                             .iter()
-                            .map(|t| a * (f * t).sin() + 0.05 * (907.0 * t * f64::from(s + 1)).sin())
+                            .map(|t| {
+                                a * (std::f64::consts::TAU * f * t).sin()
+                                    + 0.1 * a * (37.0 * t * f64::from(s + 1)).sin()
+                            })
                             .collect();
                         series(&format!("tau{s}"), x.clone(), y)
                     })
@@ -1578,12 +1813,27 @@ mod tests {
     #[test]
     #[ignore]
     fn measure_png_size() {
-        let fig = four_panel_figure();
+        let mut fig = four_panel_figure();
+        if knob("FIG", 0) == 1 {
+            fig = line_figure();
+        }
+        if knob("FIG", 0) == 2 {
+            for p in &mut fig.panels {
+                for s in &mut p.series {
+                    let x = s.x.clone();
+                    s.y = x.iter().map(|t| t.sin() * (1.0 + s.label.len() as f64)).collect();
+                }
+            }
+        }
         let t = std::time::Instant::now();
         let r = render(&fig, 1200, 900);
         let tr = t.elapsed();
         let t = std::time::Instant::now();
         let bytes = encode_png(r.w, r.h, &r.rgb);
+        let el = t.elapsed();
+        assert_eq!(decode(&bytes).1, r.rgb);
+        let t = std::time::Instant::now();
+        let _ = encode_png(r.w, r.h, &r.rgb);
         eprintln!(
             "MEASURE size {} render {:?} encode {:?}",
             bytes.len(),

@@ -83,9 +83,10 @@ pub fn sim_text(s: &SimSummary) -> String {
     );
     let _ = writeln!(
         t,
-        "  contact    first at {}, lost for {:.3} s after it",
+        "  contact    first at {}, lost for {:.3} s after it; largest contact force {:.1} N",
         f(s.first_contact_s),
-        s.contact_lost_s
+        s.contact_lost_s,
+        s.contact_force_max_n
     );
     let _ = writeln!(
         t,

@@ -4,8 +4,10 @@
 //! Eq. (1)–(2): the moment on each drive's output shaft is `M_dz = M_wz + M_ez`, so
 //! `M_ez = M_dz − M_wz`, with `M_dz` from the one-axis joint-torque sensors and `M_wz` from the
 //! IDP — the underwater RNEA ([`crate::arm::Arm::inverse_dynamics`]) of the *controller's*
-//! arm model (which may differ from the plant's), at the measured `q`, `q̇`, an estimated `q̈`
-//! (the filtered derivative of the measured rates) and the base motion the gyros give.
+//! arm model (which may differ from the plant's), at the measured `q`, `q̇`, the joint
+//! accelerations the joint controllers commanded (a computed-torque loop makes the arm follow
+//! them; differentiating the encoder rates instead lags behind the fast corrections), and the
+//! base motion the gyros give.
 //!
 //! Eq. (3)–(12): a point contact at the tool tip loads joint `i` with `M_ez,i = J_v,iᵀ F_imp`
 //! (the `J_v` columns of the tool-point Jacobian; `F_imp = −F_e` the force the tool exerts).
@@ -41,8 +43,6 @@ pub enum ForceMethod {
 pub struct IcuConfig {
     /// How the tool force is computed.
     pub method: ForceMethod,
-    /// Cut-off of the low-pass filter on the differentiated joint rates (the `q̈` estimate), Hz.
-    pub acceleration_filter_hz: f64,
     /// A joint angle closer to 0 than this counts as singular in the seed's rules, rad.
     pub singular_angle_rad: f64,
 }
@@ -51,7 +51,6 @@ impl Default for IcuConfig {
     fn default() -> Self {
         IcuConfig {
             method: ForceMethod::LeastSquares,
-            acceleration_filter_hz: 10.0,
             singular_angle_rad: 0.05,
         }
     }
@@ -63,12 +62,6 @@ impl IcuConfig {
     /// # Errors
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
-        if !(self.acceleration_filter_hz > 0.0 && self.acceleration_filter_hz.is_finite()) {
-            return Err(Error::input(
-                "sim.icu.acceleration_filter_hz",
-                "must be a positive number",
-            ));
-        }
         if !(self.singular_angle_rad >= 0.0 && self.singular_angle_rad.is_finite()) {
             return Err(Error::input(
                 "sim.icu.singular_angle_rad",
@@ -88,46 +81,23 @@ pub struct Identification {
     pub m_ez: JointVector,
     /// The force the tool exerts on the surface, `F_imp = −F_e`, arm-base axes, N.
     pub f_imp_base: Vector3<f64>,
-    /// The estimated joint accelerations used by the IDP, rad/s².
-    pub qdd: JointVector,
 }
 
-/// The identification unit, with its acceleration estimator.
-#[derive(Debug, Clone)]
-pub struct Icu {
-    cfg: IcuConfig,
-    qd_prev: Option<JointVector>,
-    qdd: JointVector,
-}
-
-impl Icu {
-    /// A unit with a settled (zero) acceleration estimate.
-    pub fn new(cfg: &IcuConfig) -> Self {
-        Icu {
-            cfg: *cfg,
-            qd_prev: None,
-            qdd: JointVector::zeros(),
-        }
-    }
-
-    /// Eq. (1)–(12) for the measurements `m` taken `dt` after the previous ones, with `arm` the
-    /// controller's model and `base` the base motion it believes.
-    pub fn identify(&mut self, arm: &Arm, m: &Measurements, base: &BaseMotion, dt: f64) -> Identification {
-        if let Some(prev) = self.qd_prev {
-            let raw = (m.qd - prev) / dt;
-            let a = 1.0 - (-2.0 * std::f64::consts::PI * self.cfg.acceleration_filter_hz * dt).exp();
-            self.qdd += (raw - self.qdd) * a;
-        }
-        self.qd_prev = Some(m.qd);
-        let m_wz = arm.inverse_dynamics(&m.q, &m.qd, &self.qdd, base, None).tau_rigid;
-        let m_ez = m.m_dz - m_wz;
-        let f_imp_base = tool_force(arm, &m.q, &m_ez, &self.cfg);
-        Identification {
-            m_wz,
-            m_ez,
-            f_imp_base,
-            qdd: self.qdd,
-        }
+/// Eq. (1)–(12) for the measurements `m`, with `arm` the controller's model, `qdd` the joint
+/// accelerations at the time of the measurements and `base` the base motion it believes.
+pub fn identify(
+    arm: &Arm,
+    m: &Measurements,
+    qdd: &JointVector,
+    base: &BaseMotion,
+    cfg: &IcuConfig,
+) -> Identification {
+    let m_wz = arm.inverse_dynamics(&m.q, &m.qd, qdd, base, None).tau_rigid;
+    let m_ez = m.m_dz - m_wz;
+    Identification {
+        m_wz,
+        m_ez,
+        f_imp_base: tool_force(arm, &m.q, &m_ez, cfg),
     }
 }
 

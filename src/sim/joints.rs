@@ -73,6 +73,8 @@ pub struct JointControl {
     /// Filtered reference accelerations, rad/s².
     pub qdd_ref: JointVector,
     m_ez: JointVector,
+    /// The joint accelerations commanded last (the computed-torque loop's `a`), rad/s².
+    pub commanded: JointVector,
 }
 
 impl JointControl {
@@ -84,6 +86,7 @@ impl JointControl {
             qd_ref: JointVector::zeros(),
             qdd_ref: JointVector::zeros(),
             m_ez: JointVector::zeros(),
+            commanded: JointVector::zeros(),
         }
     }
 
@@ -111,6 +114,7 @@ impl JointControl {
         let c = &self.cfg;
         let w = c.bandwidth_rad_s;
         let a = self.qdd_ref + (self.q_ref - q) * (w * w) + (self.qd_ref - qd) * (2.0 * c.damping_ratio * w);
+        self.commanded = a;
         let id = arm.inverse_dynamics(q, qd, &a, base, None);
         let mut tau = id.tau_rigid
             + arm.armature().component_mul(&a)

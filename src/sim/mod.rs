@@ -45,13 +45,14 @@ use crate::vehicle::thrusters::Thrusters;
 use contact::{Contact, ContactConfig};
 use fcu::{Fcu, FcuConfig, force_error};
 use hover::{Hover, HoverConfig};
-use icu::{Icu, IcuConfig};
+use icu::IcuConfig;
 use joints::{JointControl, JointControlConfig};
 use nalgebra::{Isometry3, Translation3, Vector3, Vector6};
 use record::{Recorder, Row};
 use sensors::{SensorConfig, Sensors, Truth};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
+use tcu::TcuConfig;
 use vehicle_control::{VehicleControl, VehicleControlConfig};
 
 /// The frame the contact surface's file is given in.
@@ -226,6 +227,8 @@ pub struct SimConfig {
     pub icu: IcuConfig,
     /// FCU.
     pub force: FcuConfig,
+    /// TCU.
+    pub tcu: TcuConfig,
     /// Joint controllers.
     pub joints: JointControlConfig,
     /// AUV SS.
@@ -257,6 +260,7 @@ impl Default for SimConfig {
             sensors: SensorConfig::default(),
             icu: IcuConfig::default(),
             force: FcuConfig::default(),
+            tcu: TcuConfig::default(),
             joints: JointControlConfig::default(),
             vehicle: VehicleControlConfig::default(),
             hover: HoverConfig::default(),
@@ -315,6 +319,7 @@ impl SimConfig {
         self.sensors.validate()?;
         self.icu.validate()?;
         self.force.validate()?;
+        self.tcu.validate()?;
         self.joints.validate()?;
         self.vehicle.validate()?;
         self.hover.validate()?;
@@ -331,6 +336,8 @@ pub struct SimSummary {
     pub force_settled_mean_n: f64,
     /// Largest true force along `k`, N.
     pub force_max_n: f64,
+    /// Largest magnitude of the true contact force (normal and tangential), N.
+    pub contact_force_max_n: f64,
     /// RMS of the true force's error along `k` in the contact phase once settled, N.
     pub force_rms_error_n: f64,
     /// Smallest true force along `k` in the contact phase once settled, N.
@@ -413,10 +420,10 @@ pub fn simulate(
     let allocator = Thrusters::new(&ctrl_model.thrusters)?;
     let contact = Contact::new(surface, &cfg.contact)?;
     let mut sensors = Sensors::new(&cfg.sensors, cfg.seed, h.translation.vector);
-    let mut icu = Icu::new(&cfg.icu);
     let mut fcu = Fcu::new(&cfg.force);
     let mut joints = JointControl::new(&cfg.joints, &hover.q_start);
     let mut vc = VehicleControl::new(&cfg.vehicle, &h);
+    let mut fix = tcu::FixFilter::new(&cfg.tcu, h.translation.vector);
 
     // The station was held before the run: the drives hold the arm's static load and the
     // thrusters the static wrench of the vehicle and the arm.
@@ -474,8 +481,8 @@ pub fn simulate(
             g,
             &Vector3::zeros(),
         );
-        // ICU.
-        let id = icu.identify(arm, &meas, &base, dt);
+        // ICU, with the accelerations commanded when the measurements were taken.
+        let id = icu::identify(arm, &meas, &joints.commanded, &base, &cfg.icu);
         let r_w0 = meas.attitude * arm.t_body_base.rotation;
         let f_imp_est = r_w0 * id.f_imp_base;
         // The desired tool state.
@@ -483,7 +490,9 @@ pub fn simulate(
             .sample_at(clock)
             .ok_or_else(|| Error::input("trajectory", "has no samples"))?;
         // FCU.
-        let pressing = matches!(s.phase, Phase::Dwell | Phase::Contact);
+        // Force control where the trajectory asks for a force; a sampler dragged at a set depth
+        // (force 0) is position-controlled.
+        let pressing = matches!(s.phase, Phase::Dwell | Phase::Contact) && s.force > 0.0;
         let offset = if !cfg.scenario.force_loop {
             0.0
         } else if pressing {
@@ -498,8 +507,9 @@ pub fn simulate(
             Translation3::from(s.position.coords + s.k * offset),
             s.orientation,
         );
+        let smoothed = fix.update(&meas.position, dt);
         let believed = if cfg.scenario.trajectory_correction {
-            tcu::vehicle_pose(&meas.position, &meas.attitude)
+            tcu::vehicle_pose(&smoothed, &meas.attitude)
         } else {
             h
         };
@@ -512,7 +522,7 @@ pub fn simulate(
         // AUV SS with the open loop of eq. (17).
         let open = if cfg.scenario.open_loop {
             let f_e = Force::new(-id.f_imp_base, Vector3::zeros());
-            let w = arm.inverse_dynamics(&meas.q, &meas.qd, &id.qdd, &base, Some(&f_e));
+            let w = arm.inverse_dynamics(&meas.q, &meas.qd, &joints.commanded, &base, Some(&f_e));
             -arm.base_wrench_in_body(&w.wrench_on_base)
         } else {
             Force::ZERO
@@ -552,6 +562,7 @@ pub fn simulate(
             phase: s.phase,
             t,
             f_k_true: -s.k.dot(&cs.wrench.lin),
+            f_norm: cs.wrench.lin.norm(),
             f_k_id: s.k.dot(&f_imp_est),
             in_contact: cs.in_contact(),
             m_ez_error: (id.m_ez - m_ez_true_prev).amax(),

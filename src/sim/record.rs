@@ -151,6 +151,8 @@ pub struct Observation {
     pub f_k_true: f64,
     /// Identified force along `k`, N.
     pub f_k_id: f64,
+    /// Magnitude of the true contact force, N.
+    pub f_norm: f64,
     /// In contact.
     pub in_contact: bool,
     /// Largest error of the identified external moments, N·m.
@@ -173,6 +175,7 @@ pub struct Recorder {
     settle_time: f64,
     first_contact: Option<f64>,
     force_max: f64,
+    contact_force_max: f64,
     settled: (f64, f64, usize, f64),
     force_id_error: f64,
     lost: f64,
@@ -194,6 +197,7 @@ impl Recorder {
             settle_time,
             first_contact: None,
             force_max: 0.0,
+            contact_force_max: 0.0,
             settled: (0.0, 0.0, 0, f64::INFINITY),
             force_id_error: 0.0,
             lost: 0.0,
@@ -236,6 +240,7 @@ impl Recorder {
             }
         }
         self.force_max = self.force_max.max(o.f_k_true);
+        self.contact_force_max = self.contact_force_max.max(o.f_norm);
         self.m_ez_error = self.m_ez_error.max(o.m_ez_error);
         self.deviation = self.deviation.max(o.deviation);
         self.path_error = self.path_error.max(o.path_error);
@@ -251,6 +256,7 @@ impl Recorder {
             force_setpoint_n: self.setpoint,
             force_settled_mean_n: if n > 0 { sum / nf } else { f64::NAN },
             force_max_n: self.force_max,
+            contact_force_max_n: self.contact_force_max,
             force_rms_error_n: if n > 0 { (sum2 / nf).sqrt() } else { f64::NAN },
             force_settled_min_n: if n > 0 { min } else { f64::NAN },
             tool_deviation_max_m: self.deviation,

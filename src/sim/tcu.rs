@@ -7,10 +7,72 @@
 //! then in the arm's base frame, and the analytic inverse kinematics gives the joint set-points
 //! (the solution nearest the previous set-point; no Jacobian inverse). With the correction
 //! switched off (an ablation) the vehicle is assumed to sit at its stabilisation point.
+//! The fix arrives in steps (a new one every 1/rate s); a first-order filter of time constant
+//! `fix_filter_s` smooths the steps so the set-points do not jump.
 
 use crate::arm::{Arm, JointVector};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// TCU parameters (`[sim.tcu]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TcuConfig {
+    /// Time constant of the filter on the vision fix, s (0: none).
+    pub fix_filter_s: f64,
+}
+
+impl Default for TcuConfig {
+    fn default() -> Self {
+        TcuConfig { fix_filter_s: 0.1 }
+    }
+}
+
+impl TcuConfig {
+    /// Checks the values.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the bad field.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.fix_filter_s >= 0.0 && self.fix_filter_s.is_finite()) {
+            return Err(Error::input(
+                "sim.tcu.fix_filter_s",
+                "must be a non-negative number",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The smoothed vision fix.
+#[derive(Debug, Clone, Copy)]
+pub struct FixFilter {
+    tau: f64,
+    /// The filtered position, m.
+    pub position: Vector3<f64>,
+}
+
+impl FixFilter {
+    /// A filter settled at `position`.
+    pub fn new(cfg: &TcuConfig, position: Vector3<f64>) -> Self {
+        FixFilter {
+            tau: cfg.fix_filter_s,
+            position,
+        }
+    }
+
+    /// One control period `dt` with the latest fix `fix`.
+    pub fn update(&mut self, fix: &Vector3<f64>, dt: f64) -> Vector3<f64> {
+        let a = if self.tau > 0.0 {
+            1.0 - (-dt / self.tau).exp()
+        } else {
+            1.0
+        };
+        self.position += (fix - self.position) * a;
+        self.position
+    }
+}
 
 /// The desired tool pose in the arm's base frame (eq. 18), from the desired pose in the world
 /// and the vehicle pose the controller believes (`t_world_body`).

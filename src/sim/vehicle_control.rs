@@ -43,9 +43,9 @@ pub struct VehicleControlConfig {
 impl Default for VehicleControlConfig {
     fn default() -> Self {
         VehicleControlConfig {
-            position_kp: 300.0,
-            position_ki: 30.0,
-            position_kd: 500.0,
+            position_kp: 400.0,
+            position_ki: 20.0,
+            position_kd: 1200.0,
             attitude_kp: 600.0,
             attitude_ki: 60.0,
             attitude_kd: 300.0,
