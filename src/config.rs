@@ -39,6 +39,36 @@ pub fn load<T: DeserializeOwned + Default>(path: Option<&Path>) -> Result<T> {
     }
 }
 
+/// `Ok` if `v` is finite and > 0, else an input error naming `what` (a configuration key).
+///
+/// # Errors
+/// [`Error::Input`] naming `what`.
+pub fn positive(what: &str, v: f64) -> Result<()> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::input(
+            what,
+            format!("must be a finite number > 0, got {v}"),
+        ))
+    }
+}
+
+/// `Ok` if `v` is finite and ≥ 0, else an input error naming `what` (a configuration key).
+///
+/// # Errors
+/// [`Error::Input`] naming `what`.
+pub fn non_negative(what: &str, v: f64) -> Result<()> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(Error::input(
+            what,
+            format!("must be a finite number ≥ 0, got {v}"),
+        ))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

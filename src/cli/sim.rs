@@ -79,31 +79,35 @@ pub fn sim_text(s: &SimSummary) -> String {
     let _ = writeln!(
         t,
         "  force      setpoint {:.1} N, settled mean {:.2} N (min {:.2}, RMS error {:.2}), max {:.2} N",
-        s.force_setpoint_n, s.force_settled_mean_n, s.force_settled_min_n, s.force_rms_error_n, s.force_max_n
+        s.figures.force_setpoint_n,
+        s.figures.force_settled_mean_n,
+        s.figures.force_settled_min_n,
+        s.figures.force_rms_error_n,
+        s.figures.force_max_n
     );
     let _ = writeln!(
         t,
         "  contact    first at {}, lost for {:.3} s after it; largest contact force {:.1} N",
-        f(s.first_contact_s),
-        s.contact_lost_s,
-        s.contact_force_max_n
+        f(s.figures.first_contact_s),
+        s.figures.contact_lost_s,
+        s.figures.contact_force_max_n
     );
     let _ = writeln!(
         t,
         "  tool       ‖e‖ max {:.2} mm (off the path across k: {:.2} mm)",
-        s.tool_deviation_max_m * 1e3,
-        s.tool_path_error_max_m * 1e3
+        s.figures.tool_deviation_max_m * 1e3,
+        s.figures.tool_path_error_max_m * 1e3
     );
     let _ = writeln!(
         t,
         "  vehicle    ‖r‖ max {:.2} mm, attitude max {:.3}°",
-        s.auv_deviation_max_m * 1e3,
-        s.attitude_deviation_max_rad.to_degrees()
+        s.figures.auv_deviation_max_m * 1e3,
+        s.figures.attitude_deviation_max_rad.to_degrees()
     );
     let _ = writeln!(
         t,
         "  identified joint moments within {:.3} N·m, force along k within {:.2} N",
-        s.moment_id_error_max_nm, s.force_id_error_max_n
+        s.figures.moment_id_error_max_nm, s.figures.force_id_error_max_n
     );
     t
 }

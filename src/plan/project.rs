@@ -110,29 +110,7 @@ pub(crate) fn bounded_count(what: &str, numerator: f64, denominator: f64) -> Res
     }
 }
 
-/// `Ok` if `v` is finite and > 0, else an input error naming `what`.
-pub(crate) fn positive(what: &str, v: f64) -> Result<()> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(Error::input(
-            what,
-            format!("must be a finite number > 0, got {v}"),
-        ))
-    }
-}
-
-/// `Ok` if `v` is finite and ≥ 0, else an input error naming `what`.
-pub(crate) fn non_negative(what: &str, v: f64) -> Result<()> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
-        Err(Error::input(
-            what,
-            format!("must be a finite number ≥ 0, got {v}"),
-        ))
-    }
-}
+pub(crate) use crate::config::{non_negative, positive};
 
 /// How the triangle normals of a surface are oriented before smoothing.
 #[derive(Debug, Clone, Copy, PartialEq)]

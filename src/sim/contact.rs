@@ -14,7 +14,8 @@
 //! BVH query through [`crate::surface::Surface`]), with the outward normal of the triangle it
 //! lies on; the wrench acts at the tool tip (no moment about it).
 
-use crate::error::{Error, Result};
+use crate::config::{non_negative, positive};
+use crate::error::Result;
 use crate::mesh::TriangleMesh;
 use crate::spatial_algebra::Force;
 use crate::surface::Surface;
@@ -69,26 +70,11 @@ impl ContactConfig {
     /// # Errors
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
-        let positive = [
-            ("sim.contact.stiffness_n_m", self.stiffness_n_m),
-            ("sim.contact.velocity_epsilon_m_s", self.velocity_epsilon_m_s),
-        ];
-        let non_negative = [
-            ("sim.contact.damping_n_s_m", self.damping_n_s_m),
-            ("sim.contact.friction", self.friction),
-            ("sim.contact.soil_resistance_n_m", self.soil_resistance_n_m),
-        ];
-        for (name, v) in positive {
-            if !(v > 0.0 && v.is_finite()) {
-                return Err(Error::input(name, "must be a positive number"));
-            }
-        }
-        for (name, v) in non_negative {
-            if !(v >= 0.0 && v.is_finite()) {
-                return Err(Error::input(name, "must be a non-negative number"));
-            }
-        }
-        Ok(())
+        positive("sim.contact.stiffness_n_m", self.stiffness_n_m)?;
+        positive("sim.contact.velocity_epsilon_m_s", self.velocity_epsilon_m_s)?;
+        non_negative("sim.contact.damping_n_s_m", self.damping_n_s_m)?;
+        non_negative("sim.contact.friction", self.friction)?;
+        non_negative("sim.contact.soil_resistance_n_m", self.soil_resistance_n_m)
     }
 }
 

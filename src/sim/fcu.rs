@@ -10,7 +10,8 @@
 //!
 //! The offset is bounded (`max_offset_m`), with the integral frozen while it is (anti-windup).
 
-use crate::error::{Error, Result};
+use crate::config::{non_negative, positive};
+use crate::error::Result;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
@@ -48,24 +49,11 @@ impl FcuConfig {
     /// # Errors
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
-        for (name, v) in [
-            ("sim.force.kp", self.kp),
-            ("sim.force.ki", self.ki),
-            ("sim.force.kd", self.kd),
-        ] {
-            if !(v >= 0.0 && v.is_finite()) {
-                return Err(Error::input(name, "must be a non-negative number"));
-            }
-        }
-        for (name, v) in [
-            ("sim.force.derivative_filter_hz", self.derivative_filter_hz),
-            ("sim.force.max_offset_m", self.max_offset_m),
-        ] {
-            if !(v > 0.0 && v.is_finite()) {
-                return Err(Error::input(name, "must be a positive number"));
-            }
-        }
-        Ok(())
+        non_negative("sim.force.kp", self.kp)?;
+        non_negative("sim.force.ki", self.ki)?;
+        non_negative("sim.force.kd", self.kd)?;
+        positive("sim.force.derivative_filter_hz", self.derivative_filter_hz)?;
+        positive("sim.force.max_offset_m", self.max_offset_m)
     }
 }
 

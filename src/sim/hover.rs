@@ -14,6 +14,7 @@
 //! how far the best got.
 
 use crate::arm::{Arm, JointVector};
+use crate::config::{non_negative, positive};
 use crate::error::{Error, Result};
 use crate::trajectory::Trajectory;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
@@ -72,21 +73,11 @@ impl HoverConfig {
                 "must be [lowest, highest] with lowest ≤ highest",
             ));
         }
-        for (name, v) in [
-            ("sim.hover.step_m", self.step_m),
-            ("sim.hover.yaw_step_deg", self.yaw_step_deg),
-            ("sim.hover.max_joint_step_rad", self.max_joint_step_rad),
-        ] {
-            if !(v > 0.0 && v.is_finite()) {
-                return Err(Error::input(name, "must be a positive number"));
-            }
-        }
-        if !(self.horizontal_range_m >= 0.0 && self.min_clearance_m.is_finite()) {
-            return Err(Error::input(
-                "sim.hover",
-                "ranges must be finite and non-negative",
-            ));
-        }
+        positive("sim.hover.step_m", self.step_m)?;
+        positive("sim.hover.yaw_step_deg", self.yaw_step_deg)?;
+        positive("sim.hover.max_joint_step_rad", self.max_joint_step_rad)?;
+        non_negative("sim.hover.horizontal_range_m", self.horizontal_range_m)?;
+        non_negative("sim.hover.min_clearance_m", self.min_clearance_m)?;
         if self.samples < 2 || self.samples > 100_000 {
             return Err(Error::input("sim.hover.samples", "must be between 2 and 100000"));
         }
@@ -108,8 +99,6 @@ pub struct Hover {
     pub q_start: JointVector,
     /// The worst-case manipulability `min |det J|` along the trajectory.
     pub manipulability: f64,
-    /// Candidates evaluated.
-    pub candidates: usize,
 }
 
 /// How far one candidate got.
@@ -266,7 +255,6 @@ pub fn choose(arm: &Arm, trajectory: &Trajectory, cfg: &HoverConfig) -> Result<H
             t_world_body: pose,
             q_start: r.q_start,
             manipulability: r.manipulability,
-            candidates: evaluated,
         }),
         best => {
             let reached = best.map_or(0, |(_, r)| r.reached);

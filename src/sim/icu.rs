@@ -22,7 +22,8 @@
 use super::sensors::Measurements;
 use crate::arm::dynamics::BaseMotion;
 use crate::arm::{Arm, JointVector};
-use crate::error::{Error, Result};
+use crate::config::non_negative;
+use crate::error::Result;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -62,21 +63,13 @@ impl IcuConfig {
     /// # Errors
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
-        if !(self.singular_angle_rad >= 0.0 && self.singular_angle_rad.is_finite()) {
-            return Err(Error::input(
-                "sim.icu.singular_angle_rad",
-                "must be a non-negative number",
-            ));
-        }
-        Ok(())
+        non_negative("sim.icu.singular_angle_rad", self.singular_angle_rad)
     }
 }
 
 /// One identification.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Identification {
-    /// `M_wz`: the IDP's moments without contact, N·m.
-    pub m_wz: JointVector,
     /// `M_ez = M_dz − M_wz`, N·m.
     pub m_ez: JointVector,
     /// The force the tool exerts on the surface, `F_imp = −F_e`, arm-base axes, N.
@@ -95,7 +88,6 @@ pub fn identify(
     let m_wz = arm.inverse_dynamics(&m.q, &m.qd, qdd, base, None).tau_rigid;
     let m_ez = m.m_dz - m_wz;
     Identification {
-        m_wz,
         m_ez,
         f_imp_base: tool_force(arm, &m.q, &m_ez, cfg),
     }

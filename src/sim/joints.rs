@@ -11,7 +11,8 @@
 
 use crate::arm::dynamics::BaseMotion;
 use crate::arm::{Arm, JointVector};
-use crate::error::{Error, Result};
+use crate::config::positive;
+use crate::error::Result;
 use serde::{Deserialize, Serialize};
 
 /// Joint-controller parameters (`[sim.joints]`).
@@ -48,17 +49,10 @@ impl JointControlConfig {
     /// # Errors
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
-        for (name, v) in [
-            ("sim.joints.bandwidth_rad_s", self.bandwidth_rad_s),
-            ("sim.joints.damping_ratio", self.damping_ratio),
-            ("sim.joints.reference_filter_rad_s", self.reference_filter_rad_s),
-            ("sim.joints.external_filter_hz", self.external_filter_hz),
-        ] {
-            if !(v > 0.0 && v.is_finite()) {
-                return Err(Error::input(name, "must be a positive number"));
-            }
-        }
-        Ok(())
+        positive("sim.joints.bandwidth_rad_s", self.bandwidth_rad_s)?;
+        positive("sim.joints.damping_ratio", self.damping_ratio)?;
+        positive("sim.joints.reference_filter_rad_s", self.reference_filter_rad_s)?;
+        positive("sim.joints.external_filter_hz", self.external_filter_hz)
     }
 }
 

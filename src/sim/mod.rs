@@ -33,6 +33,7 @@ pub mod vehicle_control;
 
 use crate::arm::JointVector;
 use crate::arm::dynamics::BaseMotion;
+use crate::config::{non_negative, positive};
 use crate::error::{Error, Result};
 use crate::integrate::Integrator;
 use crate::mesh::TriangleMesh;
@@ -48,7 +49,7 @@ use hover::{Hover, HoverConfig};
 use icu::IcuConfig;
 use joints::{JointControl, JointControlConfig};
 use nalgebra::{Isometry3, Translation3, Vector3, Vector6};
-use record::{Recorder, Row};
+use record::{Figures, Recorder, Row};
 use sensors::{SensorConfig, Sensors, Truth};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -124,25 +125,12 @@ impl ModelMismatch {
     }
 
     fn validate(&self) -> Result<()> {
-        for (name, v) in [
-            ("sim.controller_model.link_mass_scale", self.link_mass_scale),
-            ("sim.controller_model.link_hydro_scale", self.link_hydro_scale),
-            (
-                "sim.controller_model.vehicle_damping_scale",
-                self.vehicle_damping_scale,
-            ),
-        ] {
-            if !(v >= 0.0 && v.is_finite()) {
-                return Err(Error::input(name, "must be a non-negative number"));
-            }
-        }
-        if self.link_mass_scale <= 0.0 {
-            return Err(Error::input(
-                "sim.controller_model.link_mass_scale",
-                "must be positive",
-            ));
-        }
-        Ok(())
+        positive("sim.controller_model.link_mass_scale", self.link_mass_scale)?;
+        non_negative("sim.controller_model.link_hydro_scale", self.link_hydro_scale)?;
+        non_negative(
+            "sim.controller_model.vehicle_damping_scale",
+            self.vehicle_damping_scale,
+        )
     }
 }
 
@@ -277,14 +265,8 @@ impl SimConfig {
     /// # Errors
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
-        for (name, v) in [
-            ("sim.control_rate_hz", self.control_rate_hz),
-            ("sim.log_rate_hz", self.log_rate_hz),
-        ] {
-            if !(v > 0.0 && v.is_finite()) {
-                return Err(Error::input(name, "must be a positive number"));
-            }
-        }
+        positive("sim.control_rate_hz", self.control_rate_hz)?;
+        positive("sim.log_rate_hz", self.log_rate_hz)?;
         if self.log_rate_hz > self.control_rate_hz {
             return Err(Error::input(
                 "sim.log_rate_hz",
@@ -294,27 +276,14 @@ impl SimConfig {
         if !(1..=1000).contains(&self.plant_substeps) {
             return Err(Error::input("sim.plant_substeps", "must be between 1 and 1000"));
         }
-        for (name, v) in [
-            ("sim.tail_s", self.tail_s),
-            ("sim.settle_time_s", self.settle_time_s),
-        ] {
-            if !(v >= 0.0 && v.is_finite()) {
-                return Err(Error::input(name, "must be a non-negative number"));
-            }
-        }
+        non_negative("sim.tail_s", self.tail_s)?;
+        non_negative("sim.settle_time_s", self.settle_time_s)?;
         if !self.scenario.current_m_s.iter().all(|v| v.is_finite()) {
             return Err(Error::input("sim.scenario.current_m_s", "must be finite"));
         }
-        let d = &self.dwell;
-        let finite = [d.tolerance_n, d.hold_s, d.max_wait_s]
-            .iter()
-            .all(|v| v.is_finite());
-        if !(finite && d.tolerance_n > 0.0 && d.hold_s >= 0.0 && d.max_wait_s >= 0.0) {
-            return Err(Error::input(
-                "sim.dwell",
-                "tolerance_n must be positive, hold_s and max_wait_s non-negative",
-            ));
-        }
+        positive("sim.dwell.tolerance_n", self.dwell.tolerance_n)?;
+        non_negative("sim.dwell.hold_s", self.dwell.hold_s)?;
+        non_negative("sim.dwell.max_wait_s", self.dwell.max_wait_s)?;
         self.contact.validate()?;
         self.sensors.validate()?;
         self.icu.validate()?;
@@ -327,37 +296,12 @@ impl SimConfig {
     }
 }
 
-/// The figures of a run (DESIGN.md's `sim` summary keys, and more).
+/// The summary of a run (DESIGN.md's `sim` keys, and more).
 #[derive(Debug, Clone, Serialize)]
 pub struct SimSummary {
-    /// The desired force in contact, N (the largest along the trajectory).
-    pub force_setpoint_n: f64,
-    /// Mean true force along `k` in the contact phase once settled, N.
-    pub force_settled_mean_n: f64,
-    /// Largest true force along `k`, N.
-    pub force_max_n: f64,
-    /// Largest magnitude of the true contact force (normal and tangential), N.
-    pub contact_force_max_n: f64,
-    /// RMS of the true force's error along `k` in the contact phase once settled, N.
-    pub force_rms_error_n: f64,
-    /// Smallest true force along `k` in the contact phase once settled, N.
-    pub force_settled_min_n: f64,
-    /// Largest distance of the tool tip from where the control system wants it (`P* + ΔP*`), m.
-    pub tool_deviation_max_m: f64,
-    /// Largest distance of the tool tip from the planned path across `k` (along the surface), m.
-    pub tool_path_error_max_m: f64,
-    /// Largest distance of the vehicle from its stabilisation point, `‖r‖`, m.
-    pub auv_deviation_max_m: f64,
-    /// Largest rotation of the vehicle from its stabilisation attitude, rad.
-    pub attitude_deviation_max_rad: f64,
-    /// Time without contact after the first contact while force was demanded, s.
-    pub contact_lost_s: f64,
-    /// Time of the first contact, s (none: never touched).
-    pub first_contact_s: Option<f64>,
-    /// Largest error of the identified external joint moments, N·m.
-    pub moment_id_error_max_nm: f64,
-    /// Largest error of the identified force along `k` once settled, N.
-    pub force_id_error_max_n: f64,
+    /// The figures of the force, the deviations and the identification.
+    #[serde(flatten)]
+    pub figures: Figures,
     /// Simulated seconds per wall-clock second.
     pub realtime_factor: f64,
     /// Simulated time, s.
@@ -385,8 +329,6 @@ pub struct SimOutput {
     pub rows: Vec<Row>,
     /// The figures.
     pub summary: SimSummary,
-    /// The stabilisation pose chosen.
-    pub hover: Hover,
 }
 
 /// Simulates the contact operation along `trajectory` (world frame) against the true `surface`
@@ -438,9 +380,8 @@ pub fn simulate(
     );
     let zero = JointVector::zeros();
     let static_id = arm.inverse_dynamics(&hover.q_start, &zero, &zero, &at_rest, None);
-    let mut m_hold = Measurements0::at(&hover, &static_id.tau_rigid);
     let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
-    let tau_v0 = vc.wrench(&m_hold.read(), &ctrl.vehicle, g, &open0, 0.0);
+    let tau_v0 = vc.wrench(&held_station(&hover), &ctrl.vehicle, g, &open0, 0.0);
     plant.thrusters.hold(&allocator.allocate(&tau_v0).thrusts)?;
     let first_eval = plant.system.accelerations(
         &plant.state,
@@ -450,8 +391,7 @@ pub fn simulate(
             f_env_on_tool: Force::ZERO,
         },
     )?;
-    m_hold.shaft = first_eval.shaft_torque;
-    let mut truth_prev = truth_of(&plant.state, &m_hold.shaft);
+    let mut truth_prev = truth_of(&plant.state, &first_eval.shaft_torque);
 
     let force_setpoint = trajectory.samples.iter().map(|s| s.force).fold(0.0, f64::max);
     let log_every = ((cfg.control_rate_hz / cfg.log_rate_hz).round() as usize).max(1);
@@ -534,10 +474,8 @@ pub fn simulate(
         }
         // The plant: contact against the true surface, then the step.
         let state = plant.state;
-        let t_world_tool = plant.system.t_world_tool(&state);
-        let v_tool = plant.system.tool_velocity_world(&state);
+        let (t_world_tool, mut cs) = touch(&contact, &plant.system, &state);
         let tip = t_world_tool.translation.vector;
-        let mut cs = contact.evaluate(&tip.into(), &v_tool.fixed_rows::<3>(0).into_owned());
         let m_ez_true = external_moments(&plant.system, &state, &cs.wrench.lin);
         if k.is_multiple_of(log_every) {
             rec.push(Row::new(&record::RowInput {
@@ -574,13 +512,10 @@ pub fn simulate(
             r: (state.t_world_body.translation.vector - h.translation.vector).norm(),
             attitude: state.t_world_body.rotation.angle_to(&h.rotation),
         });
-        let mut shaft = None;
+        let mut shaft = JointVector::zeros();
         for sub in 0..cfg.plant_substeps {
             if sub > 0 {
-                let st = plant.state;
-                let tt = plant.system.t_world_tool(&st).translation.vector;
-                let vv = plant.system.tool_velocity_world(&st);
-                cs = contact.evaluate(&tt.into(), &vv.fixed_rows::<3>(0).into_owned());
+                cs = touch(&contact, &plant.system, &plant.state).1;
             }
             let input = PlantInput {
                 tau_drive: tau,
@@ -590,10 +525,12 @@ pub fn simulate(
             let report = plant
                 .step(sub_dt, &input)
                 .map_err(|e| diverged(&e, t, &plant.state))?;
-            shaft.get_or_insert(report.accelerations.shaft_torque);
+            if sub == 0 {
+                shaft = report.accelerations.shaft_torque;
+            }
         }
         check_runaway(&plant.state, &h, t + dt)?;
-        truth_prev = truth_of(&state, &shaft.unwrap_or(m_hold.shaft));
+        truth_prev = truth_of(&state, &shaft);
         m_ez_true_prev = m_ez_true;
         // The trajectory's clock: it waits at the end of a dwell until the force has settled.
         let next = clock + dt;
@@ -617,7 +554,8 @@ pub fn simulate(
     let wall_s = wall.elapsed().as_secs_f64();
     let rpy = h.rotation.euler_angles();
     let p = h.translation.vector;
-    let summary = rec.summary(SimSummaryExtras {
+    let summary = SimSummary {
+        figures: rec.figures(),
         realtime_factor: if wall_s > 0.0 {
             simulated / wall_s
         } else {
@@ -631,63 +569,33 @@ pub fn simulate(
         hover_yaw_deg: rpy.2.to_degrees(),
         hover_manipulability: hover.manipulability,
         scenario: cfg.scenario,
-    });
+    };
     Ok(SimOutput {
         rows: rec.into_rows(),
         summary,
-        hover,
     })
 }
 
-/// The parts of the summary the recorder does not see.
-#[derive(Debug, Clone, Copy)]
-pub struct SimSummaryExtras {
-    /// See [`SimSummary::realtime_factor`].
-    pub realtime_factor: f64,
-    /// See [`SimSummary::simulated_s`].
-    pub simulated_s: f64,
-    /// See [`SimSummary::dwell_wait_s`].
-    pub dwell_wait_s: f64,
-    /// See [`SimSummary::unreachable_steps`].
-    pub unreachable_steps: usize,
-    /// See [`SimSummary::thrust_saturated_fraction`].
-    pub thrust_saturated_fraction: f64,
-    /// See [`SimSummary::hover_position_m`].
-    pub hover_position_m: [f64; 3],
-    /// See [`SimSummary::hover_yaw_deg`].
-    pub hover_yaw_deg: f64,
-    /// See [`SimSummary::hover_manipulability`].
-    pub hover_manipulability: f64,
-    /// See [`SimSummary::scenario`].
-    pub scenario: Scenario,
+/// What the sensors report of the station held before the run (no vision fix yet).
+fn held_station(hover: &Hover) -> sensors::Measurements {
+    let h = &hover.t_world_body;
+    sensors::Measurements {
+        q: hover.q_start,
+        qd: JointVector::zeros(),
+        m_dz: JointVector::zeros(),
+        attitude: h.rotation,
+        omega: Vector3::zeros(),
+        position: h.translation.vector,
+        position_time: f64::NEG_INFINITY,
+    }
 }
 
-/// The sensors' view of the held station before the run.
-struct Measurements0 {
-    hover: Hover,
-    shaft: JointVector,
-}
-
-impl Measurements0 {
-    fn at(hover: &Hover, shaft: &JointVector) -> Self {
-        Measurements0 {
-            hover: *hover,
-            shaft: *shaft,
-        }
-    }
-
-    fn read(&self) -> sensors::Measurements {
-        let h = &self.hover.t_world_body;
-        sensors::Measurements {
-            q: self.hover.q_start,
-            qd: JointVector::zeros(),
-            m_dz: self.shaft,
-            attitude: h.rotation,
-            omega: Vector3::zeros(),
-            position: h.translation.vector,
-            position_time: f64::NEG_INFINITY,
-        }
-    }
+/// The true tool pose at `s` and the contact there.
+fn touch(contact: &Contact, system: &Multibody, s: &State) -> (Isometry3<f64>, contact::ContactState) {
+    let t_world_tool = system.t_world_tool(s);
+    let v = system.tool_velocity_world(s).fixed_rows::<3>(0).into_owned();
+    let state = contact.evaluate(&t_world_tool.translation.vector.into(), &v);
+    (t_world_tool, state)
 }
 
 /// What the sensors read of `s` (with the shaft torques of its step).

@@ -14,13 +14,14 @@
 //! psi_rad` (the vehicle's attitude relative to its stabilisation attitude, roll–pitch–yaw),
 //! `thrust1_n..`, `contact` (1 in contact).
 
-use super::{Scenario, SimSummary, SimSummaryExtras};
+use super::Scenario;
 use crate::arm::JointVector;
 use crate::error::{Error, Result};
 use crate::multibody::State;
 use crate::plot::{Figure, Panel, Series};
 use crate::trajectory::{Phase, Sample};
 use nalgebra::{Isometry3, Vector3};
+use serde::Serialize;
 use std::io::Write;
 
 /// One row of the time series.
@@ -167,6 +168,39 @@ pub struct Observation {
     pub attitude: f64,
 }
 
+/// The figures the recorder gathers over a run (keys of the `sim` summary).
+#[derive(Debug, Clone, Serialize)]
+pub struct Figures {
+    /// The desired force in contact, N (the largest along the trajectory).
+    pub force_setpoint_n: f64,
+    /// Mean true force along `k` in the contact phase once settled, N.
+    pub force_settled_mean_n: f64,
+    /// Largest true force along `k`, N.
+    pub force_max_n: f64,
+    /// Largest magnitude of the true contact force (normal and tangential), N.
+    pub contact_force_max_n: f64,
+    /// RMS of the true force's error along `k` in the contact phase once settled, N.
+    pub force_rms_error_n: f64,
+    /// Smallest true force along `k` in the contact phase once settled, N.
+    pub force_settled_min_n: f64,
+    /// Largest distance of the tool tip from where the control system wants it (`P* + ΔP*`), m.
+    pub tool_deviation_max_m: f64,
+    /// Largest distance of the tool tip from the planned path across `k` (along the surface), m.
+    pub tool_path_error_max_m: f64,
+    /// Largest distance of the vehicle from its stabilisation point, `‖r‖`, m.
+    pub auv_deviation_max_m: f64,
+    /// Largest rotation of the vehicle from its stabilisation attitude, rad.
+    pub attitude_deviation_max_rad: f64,
+    /// Time without contact after the first contact while force was demanded, s.
+    pub contact_lost_s: f64,
+    /// Time of the first contact, s (none: never touched).
+    pub first_contact_s: Option<f64>,
+    /// Largest error of the identified external joint moments, N·m.
+    pub moment_id_error_max_nm: f64,
+    /// Largest error of the identified force along `k` once settled, N.
+    pub force_id_error_max_n: f64,
+}
+
 /// Collects the rows and the running figures.
 #[derive(Debug, Clone)]
 pub struct Recorder {
@@ -179,7 +213,7 @@ pub struct Recorder {
     settled: (f64, f64, usize, f64),
     force_id_error: f64,
     lost: f64,
-    dt: Option<(f64, f64)>,
+    last_t: Option<f64>,
     m_ez_error: f64,
     deviation: f64,
     path_error: f64,
@@ -201,7 +235,7 @@ impl Recorder {
             settled: (0.0, 0.0, 0, f64::INFINITY),
             force_id_error: 0.0,
             lost: 0.0,
-            dt: None,
+            last_t: None,
             m_ez_error: 0.0,
             deviation: 0.0,
             path_error: 0.0,
@@ -217,11 +251,8 @@ impl Recorder {
 
     /// Takes one control period into the figures.
     pub fn observe(&mut self, o: &Observation) {
-        let dt = match self.dt {
-            Some((t_prev, _)) => o.t - t_prev,
-            None => 0.0,
-        };
-        self.dt = Some((o.t, dt));
+        let dt = self.last_t.map_or(0.0, |t_prev| o.t - t_prev);
+        self.last_t = Some(o.t);
         if o.in_contact && self.first_contact.is_none() {
             self.first_contact = Some(o.t);
         }
@@ -248,11 +279,11 @@ impl Recorder {
         self.attitude = self.attitude.max(o.attitude);
     }
 
-    /// The summary.
-    pub fn summary(&self, x: SimSummaryExtras) -> SimSummary {
+    /// The figures so far.
+    pub fn figures(&self) -> Figures {
         let (sum, sum2, n, min) = self.settled;
         let nf = n.max(1) as f64;
-        SimSummary {
+        Figures {
             force_setpoint_n: self.setpoint,
             force_settled_mean_n: if n > 0 { sum / nf } else { f64::NAN },
             force_max_n: self.force_max,
@@ -267,15 +298,6 @@ impl Recorder {
             first_contact_s: self.first_contact,
             moment_id_error_max_nm: self.m_ez_error,
             force_id_error_max_n: self.force_id_error,
-            realtime_factor: x.realtime_factor,
-            simulated_s: x.simulated_s,
-            dwell_wait_s: x.dwell_wait_s,
-            unreachable_steps: x.unreachable_steps,
-            thrust_saturated_fraction: x.thrust_saturated_fraction,
-            hover_position_m: x.hover_position_m,
-            hover_yaw_deg: x.hover_yaw_deg,
-            hover_manipulability: x.hover_manipulability,
-            scenario: x.scenario,
         }
     }
 
@@ -383,20 +405,13 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
             on(scenario.force_loop)
         )
     };
-    let moments = (0..2)
-        .map(|g| Panel {
-            title: format!("External joint moments, joints {}–{}", 3 * g + 1, 3 * g + 3),
-            y_label: "N·m".into(),
-            series: (3 * g..3 * g + 3)
-                .flat_map(|j| {
-                    [
-                        series(rows, &format!("M{}ez true", j + 1), move |r| r.m_ez_true[j]),
-                        series(rows, &format!("M{}ez identified", j + 1), move |r| r.m_ez_id[j]),
-                    ]
-                })
-                .collect(),
-        })
-        .collect();
+    let moments = joint_panels(
+        rows,
+        "External joint moments",
+        "N m",
+        [" true", " identified"],
+        |r| (&r.m_ez_true, &r.m_ez_id),
+    );
     let comps = ["x", "y", "z"];
     let force = vec![
         Panel {
@@ -425,37 +440,24 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
     ];
     let deviations = vec![
         Panel {
-            title: "Deviations of the vehicle ‖r‖ and the tool ‖e‖".into(),
+            title: "Deviations of the vehicle |r| and the tool |e|".into(),
             y_label: "m".into(),
             series: vec![
-                series(rows, "‖r‖", |r| r.r.norm()),
-                series(rows, "‖e‖", |r| r.e.norm()),
+                series(rows, "|r|", |r| r.r.norm()),
+                series(rows, "|e|", |r| r.e.norm()),
             ],
         },
         Panel {
             title: "Vehicle attitude".into(),
             y_label: "rad".into(),
-            series: ["φ", "θ", "ψ"]
+            series: ["roll", "pitch", "yaw"]
                 .iter()
                 .enumerate()
                 .map(|(c, n)| series(rows, n, move |r| r.rpy[c]))
                 .collect(),
         },
     ];
-    let joints = (0..2)
-        .map(|g| Panel {
-            title: format!("Joint coordinates {}–{}", 3 * g + 1, 3 * g + 3),
-            y_label: "rad".into(),
-            series: (3 * g..3 * g + 3)
-                .flat_map(|j| {
-                    [
-                        series(rows, &format!("q{}", j + 1), move |r| r.q[j]),
-                        series(rows, &format!("q{}*", j + 1), move |r| r.q_ref[j]),
-                    ]
-                })
-                .collect(),
-        })
-        .collect();
+    let joints = joint_panels(rows, "Joint coordinates", "rad", ["", "*"], |r| (&r.q, &r.q_ref));
     let fig = |title: &str, panels| Figure {
         title: format!("{title}{tag}"),
         x_label: "t, s".into(),
@@ -467,6 +469,35 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
         ("deviations", fig("Vehicle and tool deviations", deviations)),
         ("joints", fig("Joint coordinates", joints)),
     ]
+}
+
+/// Two panels (joints 1-3, 4-6) of a pair of joint vectors per row, e.g. true and identified.
+fn joint_panels(
+    rows: &[Row],
+    title: &str,
+    unit: &str,
+    suffixes: [&str; 2],
+    pair: fn(&Row) -> (&JointVector, &JointVector),
+) -> Vec<Panel> {
+    let name = if unit == "rad" { "q" } else { "M" };
+    (0..2)
+        .map(|g| Panel {
+            title: format!("{title}, joints {}-{}", 3 * g + 1, 3 * g + 3),
+            y_label: unit.into(),
+            series: (3 * g..3 * g + 3)
+                .flat_map(|j| {
+                    [
+                        series(rows, &format!("{name}{}{}", j + 1, suffixes[0]), move |r| {
+                            pair(r).0[j]
+                        }),
+                        series(rows, &format!("{name}{}{}", j + 1, suffixes[1]), move |r| {
+                            pair(r).1[j]
+                        }),
+                    ]
+                })
+                .collect(),
+        })
+        .collect()
 }
 
 fn on(b: bool) -> &'static str {

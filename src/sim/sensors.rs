@@ -10,7 +10,8 @@
 //! Every random draw comes from one `ChaCha8Rng` seeded from the configuration.
 
 use crate::arm::JointVector;
-use crate::error::{Error, Result};
+use crate::config::{non_negative, positive};
+use crate::error::Result;
 use crate::synth::random::gaussian;
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
@@ -61,26 +62,14 @@ impl SensorConfig {
     /// # Errors
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
-        for (name, v) in [
-            ("sim.sensors.encoder_resolution_rad", self.encoder_resolution_rad),
-            ("sim.sensors.joint_rate_noise_rad_s", self.joint_rate_noise_rad_s),
-            ("sim.sensors.torque_noise_nm", self.torque_noise_nm),
-            ("sim.sensors.attitude_noise_rad", self.attitude_noise_rad),
-            ("sim.sensors.gyro_noise_rad_s", self.gyro_noise_rad_s),
-            ("sim.sensors.vision_delay_s", self.vision_delay_s),
-            ("sim.sensors.vision_noise_m", self.vision_noise_m),
-        ] {
-            if !(v >= 0.0 && v.is_finite()) {
-                return Err(Error::input(name, "must be a non-negative number"));
-            }
-        }
-        if !(self.vision_rate_hz > 0.0 && self.vision_rate_hz.is_finite()) {
-            return Err(Error::input(
-                "sim.sensors.vision_rate_hz",
-                "must be a positive number",
-            ));
-        }
-        Ok(())
+        non_negative("sim.sensors.encoder_resolution_rad", self.encoder_resolution_rad)?;
+        non_negative("sim.sensors.joint_rate_noise_rad_s", self.joint_rate_noise_rad_s)?;
+        non_negative("sim.sensors.torque_noise_nm", self.torque_noise_nm)?;
+        non_negative("sim.sensors.attitude_noise_rad", self.attitude_noise_rad)?;
+        non_negative("sim.sensors.gyro_noise_rad_s", self.gyro_noise_rad_s)?;
+        non_negative("sim.sensors.vision_delay_s", self.vision_delay_s)?;
+        non_negative("sim.sensors.vision_noise_m", self.vision_noise_m)?;
+        positive("sim.sensors.vision_rate_hz", self.vision_rate_hz)
     }
 }
 

@@ -11,7 +11,8 @@
 //! `fix_filter_s` smooths the steps so the set-points do not jump.
 
 use crate::arm::{Arm, JointVector};
-use crate::error::{Error, Result};
+use crate::config::non_negative;
+use crate::error::Result;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -35,13 +36,7 @@ impl TcuConfig {
     /// # Errors
     /// [`Error::Input`] naming the bad field.
     pub fn validate(&self) -> Result<()> {
-        if !(self.fix_filter_s >= 0.0 && self.fix_filter_s.is_finite()) {
-            return Err(Error::input(
-                "sim.tcu.fix_filter_s",
-                "must be a non-negative number",
-            ));
-        }
-        Ok(())
+        non_negative("sim.tcu.fix_filter_s", self.fix_filter_s)
     }
 }
 

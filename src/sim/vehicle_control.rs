@@ -15,7 +15,8 @@
 
 use super::sensors::Measurements;
 use crate::body::Body;
-use crate::error::{Error, Result};
+use crate::config::non_negative;
+use crate::error::Result;
 use crate::spatial_algebra::Force;
 use nalgebra::{Isometry3, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
@@ -60,20 +61,13 @@ impl VehicleControlConfig {
     /// # Errors
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
-        for (name, v) in [
-            ("sim.vehicle.position_kp", self.position_kp),
-            ("sim.vehicle.position_ki", self.position_ki),
-            ("sim.vehicle.position_kd", self.position_kd),
-            ("sim.vehicle.attitude_kp", self.attitude_kp),
-            ("sim.vehicle.attitude_ki", self.attitude_ki),
-            ("sim.vehicle.attitude_kd", self.attitude_kd),
-            ("sim.vehicle.velocity_filter_s", self.velocity_filter_s),
-        ] {
-            if !(v >= 0.0 && v.is_finite()) {
-                return Err(Error::input(name, "must be a non-negative number"));
-            }
-        }
-        Ok(())
+        non_negative("sim.vehicle.position_kp", self.position_kp)?;
+        non_negative("sim.vehicle.position_ki", self.position_ki)?;
+        non_negative("sim.vehicle.position_kd", self.position_kd)?;
+        non_negative("sim.vehicle.attitude_kp", self.attitude_kp)?;
+        non_negative("sim.vehicle.attitude_ki", self.attitude_ki)?;
+        non_negative("sim.vehicle.attitude_kd", self.attitude_kd)?;
+        non_negative("sim.vehicle.velocity_filter_s", self.velocity_filter_s)
     }
 }
 
