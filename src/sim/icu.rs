@@ -5,9 +5,13 @@
 //! `M_ez = M_dz − M_wz`, with `M_dz` from the one-axis joint-torque sensors and `M_wz` from the
 //! IDP — the underwater RNEA ([`crate::arm::Arm::inverse_dynamics`]) of the *controller's*
 //! arm model (which may differ from the plant's), at the measured `q`, `q̇`, the joint
-//! accelerations the joint controllers commanded (a computed-torque loop makes the arm follow
-//! them; differentiating the encoder rates instead lags behind the fast corrections), and the
-//! base motion the gyros give.
+//! accelerations, and the base motion the gyros give. The accelerations are the encoder rates'
+//! derivative through a first-order filter, and `M_dz` passes the same filter, so that the
+//! inertial moments of both sides line up and `M_ez` comes out as the filtered external
+//! moments (no noise amplification, a lag of `1/(2π filter_hz)`). The accelerations the joint
+//! controllers commanded can stand in (`acceleration = "commanded"`), but where the arm does
+//! not follow them — at every contact transient — their difference enters `M_ez`, and through
+//! the compensation of `M_ez` in the drives it feeds itself.
 //!
 //! Eq. (3)–(12): a point contact at the tool tip loads joint `i` with `M_ez,i = J_v,iᵀ F_imp`
 //! (the `J_v` columns of the tool-point Jacobian; `F_imp = −F_e` the force the tool exerts).
@@ -22,7 +26,7 @@
 use super::sensors::Measurements;
 use crate::arm::dynamics::BaseMotion;
 use crate::arm::{Arm, JointVector};
-use crate::config::non_negative;
+use crate::config::{non_negative, positive};
 use crate::error::Result;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -38,6 +42,18 @@ pub enum ForceMethod {
     Seed,
 }
 
+/// Which joint accelerations enter the IDP of eq. (2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Acceleration {
+    /// The measured ones: the encoder rates' filtered derivative, with the torque sensors'
+    /// readings through the same filter so that the inertial moments line up.
+    #[default]
+    Measured,
+    /// The ones the joint controllers commanded.
+    Commanded,
+}
+
 /// ICU parameters (`[sim.icu]`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -46,6 +62,11 @@ pub struct IcuConfig {
     pub method: ForceMethod,
     /// A joint angle closer to 0 than this counts as singular in the seed's rules, rad.
     pub singular_angle_rad: f64,
+    /// The joint accelerations of the IDP.
+    pub acceleration: Acceleration,
+    /// Cut-off of the filter on the rates' derivative and on `M_dz` (`acceleration =
+    /// "measured"`), Hz.
+    pub filter_hz: f64,
 }
 
 impl Default for IcuConfig {
@@ -53,6 +74,8 @@ impl Default for IcuConfig {
         IcuConfig {
             method: ForceMethod::LeastSquares,
             singular_angle_rad: 0.05,
+            acceleration: Acceleration::Measured,
+            filter_hz: 20.0,
         }
     }
 }
@@ -63,7 +86,8 @@ impl IcuConfig {
     /// # Errors
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
-        non_negative("sim.icu.singular_angle_rad", self.singular_angle_rad)
+        non_negative("sim.icu.singular_angle_rad", self.singular_angle_rad)?;
+        positive("sim.icu.filter_hz", self.filter_hz)
     }
 }
 
@@ -76,20 +100,51 @@ pub struct Identification {
     pub f_imp_base: Vector3<f64>,
 }
 
-/// Eq. (1)–(12) for the measurements `m`, with `arm` the controller's model, `qdd` the joint
-/// accelerations at the time of the measurements and `base` the base motion it believes.
-pub fn identify(
-    arm: &Arm,
-    m: &Measurements,
-    qdd: &JointVector,
-    base: &BaseMotion,
-    cfg: &IcuConfig,
-) -> Identification {
-    let m_wz = arm.inverse_dynamics(&m.q, &m.qd, qdd, base, None).tau_rigid;
-    let m_ez = m.m_dz - m_wz;
-    Identification {
-        m_ez,
-        f_imp_base: tool_force(arm, &m.q, &m_ez, cfg),
+/// The ICU with its filters.
+#[derive(Debug, Clone)]
+pub struct Icu {
+    cfg: IcuConfig,
+    /// Filtered rates and filtered `M_dz` (none before the first measurement).
+    filtered: Option<(JointVector, JointVector)>,
+}
+
+impl Icu {
+    /// An ICU that has seen no measurement yet.
+    pub fn new(cfg: &IcuConfig) -> Self {
+        Icu {
+            cfg: *cfg,
+            filtered: None,
+        }
+    }
+
+    /// Eq. (1)–(12) for the measurements `m` of a control period `dt`, with `arm` the
+    /// controller's model, `commanded` the joint accelerations commanded when the measurements
+    /// were taken and `base` the base motion it believes.
+    pub fn identify(
+        &mut self,
+        arm: &Arm,
+        m: &Measurements,
+        commanded: &JointVector,
+        base: &BaseMotion,
+        dt: f64,
+    ) -> Identification {
+        let (qdd, m_dz) = match self.cfg.acceleration {
+            Acceleration::Commanded => (*commanded, m.m_dz),
+            Acceleration::Measured => {
+                let k = 1.0 - (-2.0 * std::f64::consts::PI * self.cfg.filter_hz * dt).exp();
+                let (rates, torques) = self.filtered.get_or_insert((m.qd, m.m_dz));
+                let step = (m.qd - *rates) * k;
+                *rates += step;
+                *torques += (m.m_dz - *torques) * k;
+                (step / dt, *torques)
+            }
+        };
+        let m_wz = arm.inverse_dynamics(&m.q, &m.qd, &qdd, base, None).tau_rigid;
+        let m_ez = m_dz - m_wz;
+        Identification {
+            m_ez,
+            f_imp_base: tool_force(arm, &m.q, &m_ez, &self.cfg),
+        }
     }
 }
 

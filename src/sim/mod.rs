@@ -46,7 +46,7 @@ use crate::vehicle::thrusters::Thrusters;
 use contact::{Contact, ContactConfig};
 use fcu::{Fcu, FcuConfig, force_error};
 use hover::{Hover, HoverConfig};
-use icu::IcuConfig;
+use icu::{Icu, IcuConfig};
 use joints::{JointControl, JointControlConfig};
 use nalgebra::{Isometry3, Translation3, Vector3, Vector6};
 use record::{Figures, Recorder, Row};
@@ -363,6 +363,7 @@ pub fn simulate(
     let contact = Contact::new(surface, &cfg.contact)?;
     let mut sensors = Sensors::new(&cfg.sensors, cfg.seed, h.translation.vector);
     let mut fcu = Fcu::new(&cfg.force);
+    let mut icu = Icu::new(&cfg.icu);
     let mut joints = JointControl::new(&cfg.joints, &hover.q_start);
     let mut vc = VehicleControl::new(&cfg.vehicle, &h);
     let mut fix = tcu::FixFilter::new(&cfg.tcu, h.translation.vector);
@@ -410,7 +411,7 @@ pub fn simulate(
             break;
         }
         // NS: what the controllers know (of the state one period ago).
-        let meas = sensors.read(t, &truth_prev);
+        let meas = vc.navigate(sensors.read(t, &truth_prev), dt);
         let omega = meas.omega;
         let nu_est = Vector6::new(0.0, 0.0, 0.0, omega.x, omega.y, omega.z);
         let base = BaseMotion::on_vehicle(
@@ -422,7 +423,7 @@ pub fn simulate(
             &Vector3::zeros(),
         );
         // ICU, with the accelerations commanded when the measurements were taken.
-        let id = icu::identify(arm, &meas, &joints.commanded, &base, &cfg.icu);
+        let id = icu.identify(arm, &meas, &joints.commanded, &base, dt);
         let r_w0 = meas.attitude * arm.t_body_base.rotation;
         let f_imp_est = r_w0 * id.f_imp_base;
         // The desired tool state.
