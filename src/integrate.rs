@@ -8,6 +8,8 @@
 //!   ([`exp_twist`]), so the attitude stays a rotation without renormalising.
 //!
 //! Both are used by [`crate::plant::Plant::step`].
+//! - [`lag_gain`]: the exact step of a first-order lag, for every filter of the controllers and
+//!   the thrusters' dynamics.
 
 use nalgebra::{Isometry3, Matrix3, SVector, Translation3, UnitQuaternion, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
@@ -21,6 +23,21 @@ pub enum Integrator {
     Rk4,
     /// Semi-implicit Euler on the configuration manifold, 1 evaluation per step.
     SemiImplicitEuler,
+}
+
+/// The gain `1 − e^(−dt/τ)` of one exact step of the first-order lag `ẏ = (u − y)/τ` with `u`
+/// held over `dt`: `y += (u − y) · gain`. A time constant of zero passes `u` straight through.
+pub fn lag_gain(dt: f64, time_constant_s: f64) -> f64 {
+    if time_constant_s > 0.0 {
+        1.0 - (-dt / time_constant_s).exp()
+    } else {
+        1.0
+    }
+}
+
+/// [`lag_gain`] for the cut-off frequency `hz` (`τ = 1/(2π hz)`).
+pub fn lag_gain_hz(dt: f64, hz: f64) -> f64 {
+    1.0 - (-2.0 * std::f64::consts::PI * hz * dt).exp()
 }
 
 /// One classical RK4 step of `ẋ = f(x)` with step `h`; stops at the first error of `f`.

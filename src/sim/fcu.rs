@@ -12,6 +12,7 @@
 
 use crate::config::{non_negative, positive};
 use crate::error::Result;
+use crate::integrate::lag_gain_hz;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
@@ -100,7 +101,7 @@ impl Fcu {
     pub fn update(&mut self, delta_f: f64, dt: f64) -> f64 {
         let c = &self.cfg;
         if let Some(prev) = self.prev_error {
-            let a = 1.0 - (-2.0 * std::f64::consts::PI * c.derivative_filter_hz * dt).exp();
+            let a = lag_gain_hz(dt, c.derivative_filter_hz);
             self.derivative += ((delta_f - prev) / dt - self.derivative) * a;
         }
         self.prev_error = Some(delta_f);

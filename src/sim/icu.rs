@@ -28,6 +28,7 @@ use crate::arm::dynamics::BaseMotion;
 use crate::arm::{Arm, JointVector};
 use crate::config::{non_negative, positive};
 use crate::error::Result;
+use crate::integrate::lag_gain_hz;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -131,7 +132,7 @@ impl Icu {
         let (qdd, m_dz) = match self.cfg.acceleration {
             Acceleration::Commanded => (*commanded, m.m_dz),
             Acceleration::Measured => {
-                let k = 1.0 - (-2.0 * std::f64::consts::PI * self.cfg.filter_hz * dt).exp();
+                let k = lag_gain_hz(dt, self.cfg.filter_hz);
                 let (rates, torques) = self.filtered.get_or_insert((m.qd, m.m_dz));
                 let step = (m.qd - *rates) * k;
                 *rates += step;

@@ -13,6 +13,7 @@ use crate::arm::dynamics::BaseMotion;
 use crate::arm::{Arm, JointVector};
 use crate::config::positive;
 use crate::error::Result;
+use crate::integrate::lag_gain_hz;
 use serde::{Deserialize, Serialize};
 
 /// Joint-controller parameters (`[sim.joints]`).
@@ -114,7 +115,7 @@ impl JointControl {
             + arm.armature().component_mul(&a)
             + arm.friction(&self.qd_ref, Some(arm.coulomb_smoothing));
         if c.compensate_external {
-            let k = 1.0 - (-2.0 * std::f64::consts::PI * c.external_filter_hz * dt).exp();
+            let k = lag_gain_hz(dt, c.external_filter_hz);
             self.m_ez += (m_ez - self.m_ez) * k;
             tau += self.m_ez;
         }

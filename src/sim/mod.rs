@@ -410,7 +410,7 @@ pub fn simulate(
         if clock > t_end + cfg.tail_s - 1e-12 {
             break;
         }
-        // NS: what the controllers know (of the state one period ago).
+        // NS: what the controllers know (of the state one period ago), the attitude filtered.
         let meas = vc.navigate(sensors.read(t, &truth_prev), dt);
         let omega = meas.omega;
         let nu_est = Vector6::new(0.0, 0.0, 0.0, omega.x, omega.y, omega.z);
@@ -422,7 +422,7 @@ pub fn simulate(
             g,
             &Vector3::zeros(),
         );
-        // ICU, with the accelerations commanded when the measurements were taken.
+        // ICU (the commanded accelerations are its fallback, `[sim.icu] acceleration`).
         let id = icu.identify(arm, &meas, &joints.commanded, &base, dt);
         let r_w0 = meas.attitude * arm.t_body_base.rotation;
         let f_imp_est = r_w0 * id.f_imp_base;
@@ -620,19 +620,14 @@ fn external_moments(system: &Multibody, s: &State, f_env: &Vector3<f64>) -> Join
 
 fn describe(s: &State) -> String {
     let p = s.t_world_body.translation.vector;
+    let list = |v: &JointVector| v.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>().join(", ");
     format!(
         "vehicle at [{:.3}, {:.3}, {:.3}] m, q = [{}] rad, q̇ = [{}] rad/s",
         p.x,
         p.y,
         p.z,
-        s.q.iter()
-            .map(|v| format!("{v:.3}"))
-            .collect::<Vec<_>>()
-            .join(", "),
-        s.qd.iter()
-            .map(|v| format!("{v:.3}"))
-            .collect::<Vec<_>>()
-            .join(", ")
+        list(&s.q),
+        list(&s.qd)
     )
 }
 

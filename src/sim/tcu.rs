@@ -13,6 +13,7 @@
 use crate::arm::{Arm, JointVector};
 use crate::config::non_negative;
 use crate::error::Result;
+use crate::integrate::lag_gain;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -59,12 +60,7 @@ impl FixFilter {
 
     /// One control period `dt` with the latest fix `fix`.
     pub fn update(&mut self, fix: &Vector3<f64>, dt: f64) -> Vector3<f64> {
-        let a = if self.tau > 0.0 {
-            1.0 - (-dt / self.tau).exp()
-        } else {
-            1.0
-        };
-        self.position += (fix - self.position) * a;
+        self.position += (fix - self.position) * lag_gain(dt, self.tau);
         self.position
     }
 }

@@ -4,11 +4,6 @@
 //! - a closed loop (PID) on the *measured* pose error: position from the delayed vision fix,
 //!   velocity from the filtered differences of successive fixes, attitude and rates from the
 //!   gyros; errors in the body frame `C`;
-//!
-//! (The attitude all controllers use is [`VehicleControl::navigate`]'s: the gyros' rates
-//! integrated and pulled towards the measured attitude by a complementary filter. Fed raw, the
-//! attitude's noise, times the 1.5 m lever of the arm, shakes the IK set-points at the control
-//! rate and the arm's reaction on the vehicle with them.)
 //! - the model's restoring wrench `g(η)` of the vehicle itself (weight at the centre of gravity,
 //!   buoyancy at the centre of buoyancy), cancelled at the measured attitude;
 //! - the open loop of eq. (17): minus the force and moment the manipulator exerts on the
@@ -17,11 +12,17 @@
 //!   (`F_e`, `M_e`) — computed by the caller with [`crate::arm::Arm::inverse_dynamics`].
 //!
 //! The wrench is then allocated to the thrusters ([`crate::vehicle::thrusters::Thrusters::allocate`]).
+//!
+//! The attitude all controllers use is [`VehicleControl::navigate`]'s: the gyros' rates
+//! integrated and pulled towards the measured attitude by a complementary filter. Fed raw, the
+//! attitude's noise, times the 1.5 m lever of the arm, shakes the IK set-points at the control
+//! rate and the arm's reaction on the vehicle with them.
 
 use super::sensors::Measurements;
 use crate::body::Body;
 use crate::config::non_negative;
 use crate::error::Result;
+use crate::integrate::lag_gain;
 use crate::spatial_algebra::Force;
 use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
@@ -114,7 +115,7 @@ impl VehicleControl {
         let predicted = self
             .attitude
             .map_or(m.attitude, |a| a * UnitQuaternion::from_scaled_axis(m.omega * dt));
-        let k = 1.0 - (-dt / self.cfg.attitude_filter_s.max(1e-9)).exp();
+        let k = lag_gain(dt, self.cfg.attitude_filter_s);
         let attitude = predicted.slerp(&m.attitude, k);
         self.attitude = Some(attitude);
         m.attitude = attitude;
@@ -136,10 +137,9 @@ impl VehicleControl {
         let c = &self.cfg;
         if m.position_time > self.last_fix.0 {
             if self.last_fix.0.is_finite() {
-                let raw = (m.position - self.last_fix.1) / (m.position_time - self.last_fix.0);
                 let span = m.position_time - self.last_fix.0;
-                let a = 1.0 - (-span / c.velocity_filter_s.max(1e-9)).exp();
-                self.velocity += (raw - self.velocity) * a;
+                let raw = (m.position - self.last_fix.1) / span;
+                self.velocity += (raw - self.velocity) * lag_gain(span, c.velocity_filter_s);
             }
             self.last_fix = (m.position_time, m.position);
         }

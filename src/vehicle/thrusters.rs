@@ -17,6 +17,7 @@
 //! saturates at `±T_max`.
 
 use crate::error::{Error, Result};
+use crate::integrate::lag_gain;
 use crate::model::{self, StaticCharacteristic, ThrustersModel};
 use crate::spatial_algebra::Force;
 use nalgebra::{DMatrix, DVector, Vector6};
@@ -145,7 +146,7 @@ impl Thrusters {
                 StaticCharacteristic::Linear => u,
                 StaticCharacteristic::Quadratic => u.signum() * u.abs().sqrt(),
             };
-            let k = 1.0 - (-dt / self.time_constant[j]).exp();
+            let k = lag_gain(dt, self.time_constant[j]);
             self.state[j] += k * (s_cmd - self.state[j]);
             let s = self.state[j];
             self.thrust[j] = self.max_thrust[j]
