@@ -369,9 +369,7 @@ fn forward_pairs(src: &[Point3<f64>], pose: &Pose, target: Surfel<'_>, gate: f64
             let mut v = Vec::with_capacity(chunk.len());
             for p in chunk {
                 let x = pose * p;
-                if let Some(nb) = target.index.nearest(&x)
-                    && nb.distance <= gate
-                {
+                if let Some(nb) = target.index.nearest_within(&x, gate) {
                     let n = target.normals[nb.index];
                     v.push(Pair {
                         x,
@@ -401,9 +399,7 @@ fn reverse_pairs(
         .map(|chunk| {
             let mut v = Vec::with_capacity(chunk.len());
             for (q, _) in chunk {
-                if let Some(nb) = model.index.nearest(&(inv * q))
-                    && nb.distance <= gate
-                {
+                if let Some(nb) = model.index.nearest_within(&(inv * q), gate) {
                     let x = pose * model.points[nb.index];
                     let n = pose * model.normals[nb.index];
                     v.push(Pair {
@@ -452,9 +448,9 @@ pub fn evaluate(source: &[Point3<f64>], target_index: &KdIndex, pose: &Pose, dis
         .par_chunks(CHUNK)
         .map(|chunk| {
             chunk.iter().fold((0usize, 0.0), |(c, s), p| {
-                match target_index.nearest(&(pose * p)) {
-                    Some(nb) if nb.distance <= distance => (c + 1, s + nb.distance * nb.distance),
-                    _ => (c, s),
+                match target_index.nearest_within(&(pose * p), distance) {
+                    Some(nb) => (c + 1, s + nb.distance * nb.distance),
+                    None => (c, s),
                 }
             })
         })

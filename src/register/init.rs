@@ -5,7 +5,8 @@
 //! match the model's. So candidates are enumerated and each is judged on the data:
 //! 1. each of the model's three axes is laid along the scan's major axis, both ways round (both
 //!    end-to-end orientations), and turned about it in `rotation_steps` equal steps — `3 × 2 ×
-//!    rotation_steps` rotations, which include the sign flips of the aligned PCA frames;
+//!    rotation_steps` rotations, which include the sign flips of the aligned PCA frames — except
+//!    the axes along which the model is shorter than the scan (`span_tolerance`);
 //! 2. each candidate's translation puts the centroids together and is then corrected by a few
 //!    trimmed mean-offset steps (the scan sees the near side only, so its centroid is biased);
 //! 3. each gets a short, coarse point-to-plane ICP from a few hundred scan points to the model
@@ -50,20 +51,25 @@ pub struct InitConfig {
     pub gate_fraction: f64,
     /// Truncation `τ` of the score as a fraction of the model's largest span.
     pub score_fraction: f64,
+    /// A model axis is laid along the scan's major axis only if the model's span along it is at
+    /// least this fraction of the scan's major span (below 1: noise, fouling, a model that is not
+    /// quite the object; 0 tries every axis).
+    pub span_tolerance: f64,
 }
 
 impl Default for InitConfig {
     fn default() -> Self {
         InitConfig {
             rotation_steps: 8,
-            coarse_points: 300,
+            coarse_points: 150,
             coarse_model_points: 4000,
             coarse_iterations: 12,
             refine: 4,
-            sample_points: 1000,
+            sample_points: 500,
             icp_iterations: 20,
             gate_fraction: 0.2,
             score_fraction: 0.05,
+            span_tolerance: 0.8,
         }
     }
 }
@@ -84,11 +90,17 @@ pub struct InitOutcome {
 }
 
 /// The candidate rotations (model frame → scan frame) for the model's and the scan's principal
-/// axes: each model axis along the scan's major axis, both ways, turned in `steps` steps.
-pub fn candidate_rotations(model: &Matrix3<f64>, scan: &Matrix3<f64>, steps: usize) -> Vec<Rotation3<f64>> {
+/// axes: each model axis `i` with `pairable[i]` along the scan's major axis, both ways, turned in
+/// `steps` steps.
+pub fn candidate_rotations(
+    model: &Matrix3<f64>,
+    scan: &Matrix3<f64>,
+    steps: usize,
+    pairable: [bool; 3],
+) -> Vec<Rotation3<f64>> {
     let s1 = Unit::new_normalize(scan.column(0).into_owned());
     let mut out = Vec::with_capacity(6 * steps.max(1));
-    for i in 0..3 {
+    for i in (0..3).filter(|&i| pairable[i]) {
         let (j, k) = ((i + 1) % 3, (i + 2) % 3);
         let a = Matrix3::from_columns(&[model.column(i), model.column(j), model.column(k)]);
         for sign in [1.0, -1.0] {
@@ -128,16 +140,19 @@ fn score(
     let (mut sum, mut off, mut n) = (0.0, Vector3::zeros(), 0usize);
     for s in scan {
         let x = inv * s;
-        if let Some(nb) = model.index.nearest(&x) {
-            let v = model.points[nb.index] - x;
-            let along = v.dot(&model.normals[nb.index]);
-            let across = (v.norm_squared() - along * along).max(0.0).sqrt();
-            let d2 = along * along + (across - spacing).max(0.0).powi(2);
-            sum += d2.min(tau * tau);
-            if nb.distance < tau {
-                off += model.points[nb.index] - x;
-                n += 1;
-            }
+        // Beyond τ + spacing the distance to the surface exceeds τ whatever the normal.
+        let Some(nb) = model.index.nearest_within(&x, tau + spacing) else {
+            sum += tau * tau;
+            continue;
+        };
+        let v = model.points[nb.index] - x;
+        let along = v.dot(&model.normals[nb.index]);
+        let across = (v.norm_squared() - along * along).max(0.0).sqrt();
+        let d2 = along * along + (across - spacing).max(0.0).powi(2);
+        sum += d2.min(tau * tau);
+        if nb.distance < tau {
+            off += model.points[nb.index] - x;
+            n += 1;
         }
     }
     let rms = (sum / scan.len().max(1) as f64).sqrt();
@@ -168,6 +183,9 @@ pub fn initial_guess(
             "gate_fraction and score_fraction must be > 0",
         ));
     }
+    if !(cfg.span_tolerance.is_finite() && cfg.span_tolerance >= 0.0) {
+        return Err(Error::input("init.span_tolerance", "must be a finite number ≥ 0"));
+    }
     if scan.len() < 10 {
         return Err(Error::failed(
             "init",
@@ -185,7 +203,12 @@ pub fn initial_guess(
     let size = model.shape.spans.max().max(1e-6);
     let tau = cfg.score_fraction * size;
     let gate = cfg.gate_fraction * size;
-    let rotations = candidate_rotations(&model.shape.axes, &scan_shape.axes, cfg.rotation_steps);
+    // The scan cannot be longer along its major axis than the model is along the axis laid
+    // there: pairings that would need it are not tried (the model's longest axis always is).
+    let longest = model.shape.spans.imax();
+    let pairable =
+        [0, 1, 2].map(|i| i == longest || model.shape.spans[i] >= cfg.span_tolerance * scan_shape.spans[0]);
+    let rotations = candidate_rotations(&model.shape.axes, &scan_shape.axes, cfg.rotation_steps, pairable);
     let candidates = rotations.len();
     // Short ICP from scan to model (every scanned point lies on the model) and the score after it.
     // The coarse stage works on a decimated model: smaller tree, faster queries.
@@ -206,13 +229,17 @@ pub fn initial_guess(
     let small_spacing = model.spacing_m * (stride as f64).sqrt();
     let refine = |(model, spacing): (Surfel<'_>, f64),
                   pts: &[Point3<f64>],
-                  pose: &Pose,
+                  (pose, gate): (&Pose, f64),
                   iterations: usize|
      -> (Pose, f64) {
         let short = IcpConfig {
             max_iterations: iterations.max(1),
             min_gate_m: (0.1 * tau).max(1e-6),
             gate_shrink: 0.85,
+            // A candidate only has to be ranked (and the best handed to the final ICP): steps
+            // below a hundredth of τ no longer change that.
+            rotation_tolerance_rad: 0.01 * tau / size,
+            translation_tolerance_m: (0.01 * tau).max(1e-9),
             ..IcpConfig::default()
         };
         let s0 = score(model, spacing, pts, pose, tau).0;
@@ -238,7 +265,12 @@ pub fn initial_guess(
                 let (_, off) = score(small, small_spacing, &coarse, &pose, gate);
                 pose *= Translation3::from(-off);
             }
-            refine((small, small_spacing), &coarse, &pose, cfg.coarse_iterations)
+            refine(
+                (small, small_spacing),
+                &coarse,
+                (&pose, gate),
+                cfg.coarse_iterations,
+            )
         })
         .collect();
     scored.sort_by(|a, b| a.1.total_cmp(&b.1));
@@ -261,7 +293,11 @@ pub fn initial_guess(
     let scored = chosen;
     let mut refined: Vec<(Pose, f64)> = scored
         .par_iter()
-        .map(|(pose, _)| refine((full, model.spacing_m), &sample, pose, cfg.icp_iterations))
+        .map(|(pose, s)| {
+            // The coarse ICP left the candidate within a few of its truncated RMS distances.
+            let near = (4.0 * s).clamp(0.1 * tau, gate);
+            refine((full, model.spacing_m), &sample, (pose, near), cfg.icp_iterations)
+        })
         .collect();
     refined.sort_by(|a, b| a.1.total_cmp(&b.1));
     let (best, best_s) = refined[0];
@@ -286,7 +322,7 @@ mod tests {
     fn candidates_are_rotations_and_include_the_pca_alignment() {
         let m = *Rotation3::from_euler_angles(0.2, 0.4, -0.3).matrix();
         let s = *Rotation3::from_euler_angles(-1.0, 0.1, 0.7).matrix();
-        let c = candidate_rotations(&m, &s, 8);
+        let c = candidate_rotations(&m, &s, 8, [true; 3]);
         assert_eq!(c.len(), 48);
         for r in &c {
             assert!((r.matrix().determinant() - 1.0).abs() < 1e-9);
