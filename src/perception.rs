@@ -5,7 +5,8 @@
 //! `clean` (range gate, voxel down-sampling, statistical outlier removal) → `seabed` (RANSAC plane,
 //! [`crate::segment::seabed`]) → `cluster` (Euclidean clusters of what stands on it) → `select`
 //! (the cluster that matches the reference's size and shape) → `normals` → `register` (global
-//! initial guess, hidden-point removal, ICP) → `surface` (2.5-D Delaunay of the object) →
+//! initial guess, hidden-point removal, ICP) → `surface` (2.5-D Delaunay of the object; no
+//! triangle across a pixel that saw another point of the cleaned scan) →
 //! `accuracy` (the seed's [59] test trajectories; pose errors and ADD-S with ground truth).
 //!
 //! Frames: everything is in the scan frame `S` (camera at `view.camera_m`, the origin for a
@@ -384,7 +385,20 @@ pub fn check(
     })?;
     let pose = registration.t_scan_reference;
     let scan_surface = timings.time("surface", || {
-        triangulate_view(&object.points, &camera, &cfg.surface)
+        // The rest of the cleaned scan: no triangle of the object spans a pixel that saw
+        // something else.
+        let others = segmentation.as_ref().map_or_else(Vec::new, |seg| {
+            let mut on_object = vec![false; seg.cloud.len()];
+            seg.object().indices.iter().for_each(|&i| on_object[i] = true);
+            seg.cloud
+                .points
+                .iter()
+                .zip(&on_object)
+                .filter(|&(_, &o)| !o)
+                .map(|(p, _)| *p)
+                .collect()
+        });
+        triangulate_view(&object.points, &others, &camera, &cfg.surface)
     })?;
     let reference_surface = timings.time("reference_surface", || match &model.mesh {
         Some(m) => Ok(m.transformed(&pose)),
@@ -393,7 +407,7 @@ pub fn check(
                 .iter()
                 .map(|p| pose * p)
                 .collect();
-            triangulate_view(&visible, &camera, &cfg.surface)
+            triangulate_view(&visible, &[], &camera, &cfg.surface)
         }
     })?;
     let accuracy = timings.time("accuracy", || -> Result<Deviation> {

@@ -185,7 +185,7 @@ fn soil_sampling_line_on_the_sediment_scene() {
     let (cloud, _) = clean(&scene.scan, &pc.clean, &camera).unwrap();
     let fit = find_seabed(&cloud.points, Some(&scene.truth.up_in_scan), &pc.seabed).unwrap();
     let inliers: Vec<Point3<f64>> = fit.inliers.iter().map(|&i| cloud.points[i]).collect();
-    let seabed = triangulate_view(&inliers, &camera, &pc.surface).unwrap();
+    let seabed = triangulate_view(&inliers, &[], &camera, &pc.surface).unwrap();
     let input = PlanInput {
         object: None,
         viewpoint: camera,

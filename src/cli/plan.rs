@@ -127,7 +127,7 @@ pub fn plan_text(r: &PlanReport) -> String {
 /// The seabed plane and its triangulated inliers, from a cleaned cloud.
 fn seabed_surface(points: &[Point3<f64>], inliers: &[usize], cfg: &PerceptionConfig) -> Result<TriangleMesh> {
     let pts: Vec<Point3<f64>> = inliers.iter().filter_map(|&i| points.get(i).copied()).collect();
-    triangulate_view(&pts, &cfg.view.camera(), &cfg.surface)
+    triangulate_view(&pts, &[], &cfg.view.camera(), &cfg.surface)
 }
 
 /// Runs `uvms plan`.
