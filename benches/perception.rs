@@ -5,8 +5,8 @@
 //! point, no `up` prior), Euclidean clusters at 20 mm of at least 100 points, normals from at most
 //! 30 neighbours within 15 mm, ICP with its gate held at 10 mm and at most 50 iterations.
 //!
-//! Measured, per input: `seabed_ransac` (`find_seabed` on the cleaned scan), `cluster` (index and
-//! `euclidean_clusters` on the object side), `register` (index, normals and `register` with the
+//! Measured, per input: `seabed_ransac` (`find_seabed` on the cleaned scan), `cluster`
+//! (`euclidean_clusters` on the object side), `register` (index, normals and `register` with the
 //! global initial guess on the selected object), and the whole `segment` and `check` calls.
 //! Inputs: the synthetic bottle scan `data/scans/bottle/scan.ply` with `data/models/bottle.ply`;
 //! with `UVMS_REAL_DATA` set, also PCL's `milk_cartoon_all_small_clorox.ply` with `milk.ply`
@@ -142,10 +142,7 @@ fn bench_input(c: &mut Criterion, cfg: &PerceptionConfig, input: &Input) {
         b.iter(|| find_seabed(black_box(cleaned), None, &cfg.seabed).unwrap())
     });
     g.bench_function("cluster", |b| {
-        b.iter(|| {
-            let index = KdIndex::new(black_box(&side)).unwrap();
-            euclidean_clusters(&side, &index, &cfg.cluster).unwrap()
-        })
+        b.iter(|| euclidean_clusters(black_box(&side), &cfg.cluster).unwrap())
     });
     g.bench_function("register", |b| {
         b.iter(|| {

@@ -263,8 +263,7 @@ pub fn segment(
     let side_points: Vec<Point3<f64>> = object_side.iter().map(|&i| cloud.points[i]).collect();
     let clusters = timings.time("cluster", || -> Result<Vec<Cluster>> {
         if cfg.cluster.enabled {
-            let index = KdIndex::new(&side_points)?;
-            let found = euclidean_clusters(&side_points, &index, &cfg.cluster)?;
+            let found = euclidean_clusters(&side_points, &cfg.cluster)?;
             // Back to indices into the cleaned cloud.
             Ok(found
                 .clusters

@@ -1,17 +1,20 @@
 //! Euclidean cluster extraction (Rusu 2009, §6.2; PCL's `EuclideanClusterExtraction`).
 //!
 //! Two points belong to the same cluster when a chain of points joins them with every link at
-//! most `tolerance_m` long. Clusters grow breadth-first on the [`KdIndex`]; the radius queries of
-//! each breadth-first front run in parallel, and the points of a cluster are reported in
-//! increasing index order, so the result does not depend on the number of threads. Clusters with
-//! fewer than `min_points` or more than `max_points` points are dropped. Units: metres.
+//! most `tolerance_m` long. Computed as connected components on a uniform grid of cell edge
+//! `tolerance_m / √3` (the grid-based exact DBSCAN of Gunawan 2013 and Gan & Tao 2015, with
+//! one point as the core): all points of one cell are within the tolerance of each other, so a
+//! cell is joined whole; two cells at most two cells apart on every axis are joined (union-find)
+//! as soon as one pair of their points is within the tolerance, and no other cells can be. The
+//! points of a cluster are reported in increasing index order. Clusters with fewer than
+//! `min_points` or more than `max_points` points are dropped. Units: metres.
 
 use crate::cloud::pca::{PrincipalAxes, principal_axes};
 use crate::error::{Error, Result};
-use crate::spatial::KdIndex;
 use nalgebra::Point3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
 
 /// Configuration of the clustering stage.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -61,16 +64,12 @@ pub struct Clustering {
     pub large_clusters: usize,
 }
 
-/// Euclidean clusters of `points` (`index` built on the same slice).
+/// Euclidean clusters of `points`.
 ///
 /// # Errors
 /// [`Error::Input`] naming `cluster.tolerance_m` or `cluster.min_points` when they are not
 /// usable.
-pub fn euclidean_clusters(
-    points: &[Point3<f64>],
-    index: &KdIndex,
-    cfg: &ClusterConfig,
-) -> Result<Clustering> {
+pub fn euclidean_clusters(points: &[Point3<f64>], cfg: &ClusterConfig) -> Result<Clustering> {
     if !(cfg.tolerance_m > 0.0 && cfg.tolerance_m.is_finite()) {
         return Err(Error::input("cluster.tolerance_m", "must be > 0"));
     }
@@ -80,43 +79,90 @@ pub fn euclidean_clusters(
             "must be ≥ 1 and ≤ cluster.max_points",
         ));
     }
-    let n = points.len();
-    let mut visited = vec![false; n];
-    let mut groups: Vec<Vec<usize>> = Vec::new();
-    let mut small_points = 0;
-    let mut large_clusters = 0;
-    for seed in 0..n {
-        if visited[seed] {
-            continue;
+    let Some((lo, hi)) = crate::cloud::bbox(points) else {
+        return Ok(Clustering {
+            clusters: Vec::new(),
+            small_points: 0,
+            large_clusters: 0,
+        });
+    };
+    let tol2 = cfg.tolerance_m * cfg.tolerance_m;
+    let edge = cfg.tolerance_m / 3f64.sqrt();
+    if (hi - lo).max() / edge > 2f64.powi(40) {
+        return Err(Error::input(
+            "cluster.tolerance_m",
+            "too small for the extent of the cloud (more than 2^40 cells across)",
+        ));
+    }
+    // Points sorted by cell; `cells[c]` = (cell, first, end) in that order.
+    let cell_of = |p: &Point3<f64>| [0, 1, 2].map(|k| ((p[k] - lo[k]) / edge).floor() as i64);
+    let mut order: Vec<([i64; 3], u32)> = points
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| (cell_of(p), i as u32))
+        .collect();
+    order.par_sort_unstable();
+    let mut cells: Vec<([i64; 3], usize, usize)> = Vec::new();
+    for (at, &(c, _)) in order.iter().enumerate() {
+        match cells.last_mut() {
+            Some(last) if last.0 == c => last.2 = at + 1,
+            _ => cells.push((c, at, at + 1)),
         }
-        visited[seed] = true;
-        let mut members = vec![seed];
-        let mut front = vec![seed];
-        while !front.is_empty() {
-            let found: Vec<Vec<usize>> = front
-                .par_iter()
-                .map(|&i| {
-                    let mut v = Vec::new();
-                    index.within_visit(&points[i], cfg.tolerance_m, |nb| v.push(nb.index));
-                    v
-                })
-                .collect();
-            front.clear();
-            for j in found.into_iter().flatten() {
-                if !visited[j] {
-                    visited[j] = true;
-                    front.push(j);
-                }
+    }
+    let lookup: HashMap<[i64; 3], usize> = cells.iter().enumerate().map(|(i, c)| (c.0, i)).collect();
+    let sorted: Vec<Point3<f64>> = order.iter().map(|&(_, i)| points[i as usize]).collect();
+    let touch = |a: usize, b: usize| {
+        let (pa, pb) = (&sorted[cells[a].1..cells[a].2], &sorted[cells[b].1..cells[b].2]);
+        pa.iter()
+            .any(|p| pb.iter().any(|q| (p - q).norm_squared() <= tol2))
+    };
+    // Union-find over cells; each pair of cells is looked at once (the offsets in one half of
+    // the 5×5×5 block).
+    let mut parent: Vec<usize> = (0..cells.len()).collect();
+    let find = |parent: &mut Vec<usize>, mut x: usize| {
+        while parent[x] != x {
+            parent[x] = parent[parent[x]];
+            x = parent[x];
+        }
+        x
+    };
+    let offsets: Vec<[i64; 3]> = (-2..=2)
+        .flat_map(|x| (-2..=2).flat_map(move |y| (-2..=2).map(move |z| [x, y, z])))
+        .filter(|d| *d > [0, 0, 0])
+        .collect();
+    for a in 0..cells.len() {
+        let c = cells[a].0;
+        for d in &offsets {
+            let Some(&b) = lookup.get(&[c[0] + d[0], c[1] + d[1], c[2] + d[2]]) else {
+                continue;
+            };
+            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+            if ra != rb && touch(a, b) {
+                parent[ra.max(rb)] = ra.min(rb);
             }
-            members.extend_from_slice(&front);
         }
-        if members.len() < cfg.min_points {
-            small_points += members.len();
-        } else if members.len() > cfg.max_points {
+    }
+    // Members by root, in increasing point index.
+    let mut root_of_point = vec![0usize; points.len()];
+    for (cell, &(_, from, to)) in cells.iter().enumerate() {
+        let r = find(&mut parent, cell);
+        for &(_, i) in &order[from..to] {
+            root_of_point[i as usize] = r;
+        }
+    }
+    let mut members: HashMap<usize, Vec<usize>> = HashMap::new();
+    for (i, &r) in root_of_point.iter().enumerate() {
+        members.entry(r).or_default().push(i);
+    }
+    let (mut small_points, mut large_clusters) = (0, 0);
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for m in members.into_values() {
+        if m.len() < cfg.min_points {
+            small_points += m.len();
+        } else if m.len() > cfg.max_points {
             large_clusters += 1;
         } else {
-            members.sort_unstable();
-            groups.push(members);
+            groups.push(m);
         }
     }
     groups.sort_by(|a, b| b.len().cmp(&a.len()).then(a[0].cmp(&b[0])));
@@ -165,13 +211,12 @@ mod tests {
         pts.extend(blob(&mut rng, Point3::new(-0.3, 0.0, 1.0), 0.01, 20)); // too small
         // Far-apart single points (noise).
         pts.extend((0..10).map(|i| Point3::new(1.0 + i as f64, 5.0, 1.0)));
-        let idx = KdIndex::new(&pts).unwrap();
         let cfg = ClusterConfig {
             tolerance_m: 0.02,
             min_points: 50,
             ..Default::default()
         };
-        let c = euclidean_clusters(&pts, &idx, &cfg).unwrap();
+        let c = euclidean_clusters(&pts, &cfg).unwrap();
         assert_eq!(c.clusters.len(), 2);
         assert_eq!(c.clusters[0].indices, (0..3000).collect::<Vec<_>>());
         assert_eq!(c.clusters[1].indices, (3000..4000).collect::<Vec<_>>());
@@ -179,7 +224,6 @@ mod tests {
         assert!((c.clusters[1].shape.centroid - Point3::new(0.3, 0.0, 1.0)).norm() < 0.005);
         let c = euclidean_clusters(
             &pts,
-            &idx,
             &ClusterConfig {
                 max_points: 2000,
                 ..cfg.clone()
@@ -190,7 +234,6 @@ mod tests {
         assert!(
             euclidean_clusters(
                 &pts,
-                &idx,
                 &ClusterConfig {
                     tolerance_m: 0.0,
                     ..cfg
@@ -201,18 +244,68 @@ mod tests {
     }
 
     #[test]
+    fn components_match_brute_force() {
+        // Random points at several densities: the clusters are exactly the connected components
+        // of the graph "within the tolerance", found here by brute force.
+        let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(9);
+        for (n, tol) in [(400, 0.05), (400, 0.1), (800, 0.03), (300, 0.2)] {
+            let pts: Vec<Point3<f64>> = (0..n)
+                .map(|_| {
+                    Point3::new(
+                        rng.random::<f64>(),
+                        rng.random::<f64>(),
+                        0.3 * rng.random::<f64>(),
+                    )
+                })
+                .collect();
+            let mut label = vec![usize::MAX; n];
+            let mut expect: Vec<Vec<usize>> = Vec::new();
+            for s in 0..n {
+                if label[s] != usize::MAX {
+                    continue;
+                }
+                label[s] = expect.len();
+                let (mut stack, mut members) = (vec![s], vec![s]);
+                while let Some(i) = stack.pop() {
+                    for j in 0..n {
+                        if label[j] == usize::MAX && (pts[i] - pts[j]).norm() <= tol {
+                            label[j] = label[s];
+                            stack.push(j);
+                            members.push(j);
+                        }
+                    }
+                }
+                members.sort_unstable();
+                expect.push(members);
+            }
+            expect.sort_by(|a, b| b.len().cmp(&a.len()).then(a[0].cmp(&b[0])));
+            let cfg = ClusterConfig {
+                tolerance_m: tol,
+                min_points: 1,
+                ..Default::default()
+            };
+            let got: Vec<Vec<usize>> = euclidean_clusters(&pts, &cfg)
+                .unwrap()
+                .clusters
+                .into_iter()
+                .map(|c| c.indices)
+                .collect();
+            assert_eq!(got, expect, "n {n}, tolerance {tol}");
+        }
+    }
+
+    #[test]
     fn a_chain_is_one_cluster() {
         // Points 9 mm apart along a line: one cluster at 10 mm tolerance, none joined at 8 mm.
         let pts: Vec<Point3<f64>> = (0..200)
             .map(|i| Point3::new(0.009 * i as f64, 0.0, 0.0))
             .collect();
-        let idx = KdIndex::new(&pts).unwrap();
         let mut cfg = ClusterConfig {
             min_points: 1,
             ..Default::default()
         };
-        assert_eq!(euclidean_clusters(&pts, &idx, &cfg).unwrap().clusters.len(), 1);
+        assert_eq!(euclidean_clusters(&pts, &cfg).unwrap().clusters.len(), 1);
         cfg.tolerance_m = 0.008;
-        assert_eq!(euclidean_clusters(&pts, &idx, &cfg).unwrap().clusters.len(), 200);
+        assert_eq!(euclidean_clusters(&pts, &cfg).unwrap().clusters.len(), 200);
     }
 }
