@@ -12,11 +12,6 @@
 //!   (`F_e`, `M_e`) — computed by the caller with [`crate::arm::Arm::inverse_dynamics`].
 //!
 //! The wrench is then allocated to the thrusters ([`crate::vehicle::thrusters::Thrusters::allocate`]).
-//!
-//! The attitude all controllers use is [`VehicleControl::navigate`]'s: the gyros' rates
-//! integrated and pulled towards the measured attitude by a complementary filter. Fed raw, the
-//! attitude's noise, times the 1.5 m lever of the arm, shakes the IK set-points at the control
-//! rate and the arm's reaction on the vehicle with them.
 
 use super::sensors::Measurements;
 use crate::body::Body;
@@ -24,7 +19,7 @@ use crate::config::non_negative;
 use crate::error::Result;
 use crate::integrate::lag_gain;
 use crate::spatial_algebra::Force;
-use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{Isometry3, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
 /// Stabilisation gains (`[sim.vehicle]`).
@@ -45,8 +40,6 @@ pub struct VehicleControlConfig {
     pub attitude_kd: f64,
     /// Time constant of the low-pass filter on the velocity from successive fixes, s.
     pub velocity_filter_s: f64,
-    /// Time constant of the complementary filter on the attitude, s.
-    pub attitude_filter_s: f64,
 }
 
 impl Default for VehicleControlConfig {
@@ -59,7 +52,6 @@ impl Default for VehicleControlConfig {
             attitude_ki: 60.0,
             attitude_kd: 300.0,
             velocity_filter_s: 0.3,
-            attitude_filter_s: 1.0,
         }
     }
 }
@@ -76,8 +68,7 @@ impl VehicleControlConfig {
         non_negative("sim.vehicle.attitude_kp", self.attitude_kp)?;
         non_negative("sim.vehicle.attitude_ki", self.attitude_ki)?;
         non_negative("sim.vehicle.attitude_kd", self.attitude_kd)?;
-        non_negative("sim.vehicle.velocity_filter_s", self.velocity_filter_s)?;
-        non_negative("sim.vehicle.attitude_filter_s", self.attitude_filter_s)
+        non_negative("sim.vehicle.velocity_filter_s", self.velocity_filter_s)
     }
 }
 
@@ -89,8 +80,6 @@ pub struct VehicleControl {
     integral: Vector6<f64>,
     last_fix: (f64, Vector3<f64>),
     velocity: Vector3<f64>,
-    /// The filtered attitude (none before the first measurement).
-    attitude: Option<UnitQuaternion<f64>>,
 }
 
 impl VehicleControl {
@@ -103,23 +92,7 @@ impl VehicleControl {
             integral: Vector6::zeros(),
             last_fix: (f64::NEG_INFINITY, hover.translation.vector),
             velocity: Vector3::zeros(),
-            attitude: None,
         }
-    }
-
-    /// Takes the measurements `m` of a control period `dt` and returns them with the attitude
-    /// the controllers work with: the gyros' rates integrated and pulled towards the measured
-    /// attitude with the time constant `attitude_filter_s` (the rates' noise integrates to
-    /// little, the attitude's noise is averaged).
-    pub fn navigate(&mut self, mut m: Measurements, dt: f64) -> Measurements {
-        let predicted = self
-            .attitude
-            .map_or(m.attitude, |a| a * UnitQuaternion::from_scaled_axis(m.omega * dt));
-        let k = lag_gain(dt, self.cfg.attitude_filter_s);
-        let attitude = predicted.slerp(&m.attitude, k);
-        self.attitude = Some(attitude);
-        m.attitude = attitude;
-        m
     }
 
     /// The body wrench (`C` axes, about `C`'s origin) for the measurements `m`, with
