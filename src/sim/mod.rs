@@ -385,7 +385,7 @@ pub fn simulate(
     let zero = JointVector::zeros();
     let static_id = arm.inverse_dynamics(&hover.q_start, &zero, &zero, &at_rest, None);
     let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
-    let tau_v0 = vc.wrench(&held_station(&hover, g), &ctrl.vehicle, g, &open0, 0.0);
+    let tau_v0 = vc.wrench(&held_station(&hover, g), &nav, &ctrl.vehicle, g, &open0, 0.0);
     plant.thrusters.hold(&allocator.allocate(&tau_v0).thrusts)?;
     let first_eval = plant.system.accelerations(
         &plant.state,
@@ -482,7 +482,7 @@ pub fn simulate(
         } else {
             Force::ZERO
         };
-        let tau_vehicle = vc.wrench(&meas, &ctrl.vehicle, g, &open, dt);
+        let tau_vehicle = vc.wrench(&meas, &nav, &ctrl.vehicle, g, &open, dt);
         let alloc = allocator.allocate(&tau_vehicle);
         if alloc.scale < 1.0 {
             saturated += 1;
