@@ -359,10 +359,10 @@ pub fn simulate(
     let ctrl = Multibody::new(&ctrl_model)?;
     let arm = &ctrl.arm;
     let g = ctrl_model.environment.gravity;
-    let hover = hover::choose(arm, trajectory, &cfg.hover)?;
+    let allocator = Thrusters::new(&ctrl_model.thrusters)?;
+    let hover = hover::choose(arm, &allocator, trajectory, &cfg.hover)?;
     let h = hover.t_world_body;
     let mut plant = Plant::new(&plant_model, State::at_rest(h, hover.q_start), cfg.integrator)?;
-    let allocator = Thrusters::new(&ctrl_model.thrusters)?;
     let contact = Contact::new(surface, &cfg.contact)?;
     let mut sensors = Sensors::new(&cfg.sensors, cfg.seed, h.translation.vector);
     let mut fcu = Fcu::new(&cfg.force);
