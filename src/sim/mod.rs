@@ -437,14 +437,16 @@ pub fn simulate(
             g,
             &Vector3::zeros(),
         );
-        // ICU (the commanded accelerations are its fallback, `[sim.icu] acceleration`).
-        let id = icu.identify(arm, &meas, &joints.commanded, &base, dt);
-        let r_w0 = meas.attitude * arm.t_body_base.rotation;
-        let f_imp_est = r_w0 * id.f_imp_base;
         // The desired tool state.
         let s = trajectory
             .sample_at(clock)
             .ok_or_else(|| Error::input("trajectory", "has no samples"))?;
+        // ICU (the commanded accelerations are its fallback, `[sim.icu] acceleration`), zeroed
+        // in the approach until the touch.
+        let approach = s.phase == Phase::Approach;
+        let id = icu.identify(arm, &meas, &joints.commanded, &base, approach, dt);
+        let r_w0 = meas.attitude * arm.t_body_base.rotation;
+        let f_imp_est = r_w0 * id.f_imp_base;
         // FCU.
         // Force control where the trajectory asks for a force; a sampler dragged at a set depth
         // (force 0) is position-controlled.
