@@ -8,16 +8,24 @@
 //! the branch is followed along the trajectory (every `stride`-th sample, then the analytic IK
 //! nearest the previous solution); it reaches the trajectory if every sample has a solution
 //! within the joint limits and no joint jumps by more than `max_joint_step_rad` between
-//! samples (no flip of the wrist or elbow). Among those that reach, the one with the largest
-//! worst-case manipulability `min |det J(q)|` (Yoshikawa) wins; a second, finer grid around
-//! it refines the choice. No candidate reaching the whole trajectory is an error that says
+//! samples (no flip of the wrist or elbow). The vehicle must also hold the contact: at each
+//! checked sample of the dwell and contact phases the tool is loaded with the planned force
+//! (`force` along `k`) and the expected resistance to its motion (`drag_n` against `x_G`), and
+//! the thrusters must cancel that force at the tool's lever, `[F; p × F]` in `C`; the largest
+//! `|T_j|/T_max` of that allocation is the candidate's thrust utilisation (a horizontal drag
+//! across the vehicle loads the roll axis, which only two vertical thrusters 2h apart
+//! control; along it, the two surge thrusters and the pitch axis). Among the candidates that
+//! reach, those within `max_thrust_utilisation` are preferred, and of them the one with the
+//! largest worst-case manipulability `min |det J(q)|` (Yoshikawa) wins (if none is within,
+//! the least utilised); a second, finer grid around it refines the choice. No candidate reaching the whole trajectory is an error that says
 //! how far the best got.
 
 use crate::arm::{Arm, JointVector};
 use crate::config::{non_negative, positive};
 use crate::error::{Error, Result};
-use crate::trajectory::Trajectory;
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use crate::trajectory::{Phase, Trajectory};
+use crate::vehicle::thrusters::Thrusters;
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
 /// Hover-point search (`[sim.hover]`).
@@ -42,6 +50,10 @@ pub struct HoverConfig {
     pub max_joint_step_rad: f64,
     /// Samples checked: about this many, evenly spread.
     pub samples: usize,
+    /// Expected resistance to the tool's motion in contact (soil, friction), N.
+    pub drag_n: f64,
+    /// Largest thrust utilisation (`|T_j|/T_max`) the contact may take.
+    pub max_thrust_utilisation: f64,
 }
 
 impl Default for HoverConfig {
@@ -56,6 +68,8 @@ impl Default for HoverConfig {
             min_clearance_m: 0.45,
             max_joint_step_rad: 0.5,
             samples: 60,
+            drag_n: 0.0,
+            max_thrust_utilisation: 0.5,
         }
     }
 }
@@ -78,6 +92,8 @@ impl HoverConfig {
         positive("sim.hover.max_joint_step_rad", self.max_joint_step_rad)?;
         non_negative("sim.hover.horizontal_range_m", self.horizontal_range_m)?;
         non_negative("sim.hover.min_clearance_m", self.min_clearance_m)?;
+        non_negative("sim.hover.drag_n", self.drag_n)?;
+        positive("sim.hover.max_thrust_utilisation", self.max_thrust_utilisation)?;
         if self.samples < 2 || self.samples > 100_000 {
             return Err(Error::input("sim.hover.samples", "must be between 2 and 100000"));
         }
@@ -107,6 +123,23 @@ struct Reach {
     /// Checked samples reached before the first failure (all: the whole trajectory).
     reached: usize,
     manipulability: f64,
+    /// The largest thrust utilisation of the contact over the reached samples.
+    utilisation: f64,
+}
+
+impl Reach {
+    /// Whether `self` is a better candidate than `other` (see the module docs).
+    fn beats(&self, other: &Reach, limit: f64) -> bool {
+        let key = |r: &Reach| {
+            let within = r.utilisation <= limit;
+            (
+                r.reached,
+                within,
+                if within { r.manipulability } else { -r.utilisation },
+            )
+        };
+        key(self).partial_cmp(&key(other)) == Some(std::cmp::Ordering::Greater)
+    }
 }
 
 /// The vehicle pose at `position`, level, heading `yaw`.
@@ -117,55 +150,78 @@ fn level_pose(position: Vector3<f64>, yaw: f64) -> Isometry3<f64> {
     )
 }
 
-/// Follows each IK branch of the first target along `targets` (world tool poses) for the
-/// vehicle at `t_world_body`; the best branch.
+/// The thrust utilisation of holding the environment's force `f_env` (world) on the tool at
+/// `tool` (world) with the vehicle at `t_world_body`.
+fn utilisation(
+    thrusters: &Thrusters,
+    t_world_body: &Isometry3<f64>,
+    tool: &Vector3<f64>,
+    f_env: &Vector3<f64>,
+) -> f64 {
+    let f = t_world_body.rotation.inverse() * f_env;
+    let p = t_world_body.inverse_transform_point(&(*tool).into()).coords;
+    let mut tau = Vector6::zeros();
+    tau.fixed_rows_mut::<3>(0).copy_from(&-f);
+    tau.fixed_rows_mut::<3>(3).copy_from(&-p.cross(&f));
+    thrusters.allocate(&tau).utilisation
+}
+
+/// Follows each IK branch of the first target along `targets` (world tool poses, with the
+/// environment's expected force on the tool) for the vehicle at `t_world_body`; the best
+/// branch.
 fn follow(
     arm: &Arm,
+    thrusters: &Thrusters,
     t_world_body: &Isometry3<f64>,
-    targets: &[Isometry3<f64>],
-    max_step: f64,
+    targets: &[(Isometry3<f64>, Vector3<f64>)],
+    cfg: &HoverConfig,
 ) -> Result<Option<Reach>> {
+    let max_step = cfg.max_joint_step_rad;
     let t_base_world = (t_world_body * arm.t_body_base).inverse();
-    let Some(first) = targets.first() else {
+    let Some((first, _)) = targets.first() else {
         return Ok(None);
+    };
+    let load = |(t, f): &(Isometry3<f64>, Vector3<f64>)| {
+        utilisation(thrusters, t_world_body, &t.translation.vector, f)
     };
     let starts = arm.ik(&(t_base_world * first), &JointVector::zeros())?;
     let mut best: Option<Reach> = None;
     for q0 in starts.as_slice() {
         let mut q = *q0;
-        let mut worst = arm.jacobian(&q).determinant().abs();
-        let mut reached = 1;
+        let mut r = Reach {
+            q_start: *q0,
+            reached: 1,
+            manipulability: arm.jacobian(&q).determinant().abs(),
+            utilisation: load(&targets[0]),
+        };
         for target in &targets[1..] {
-            let Some(next) = arm.ik(&(t_base_world * target), &q)?.nearest().copied() else {
+            let Some(next) = arm.ik(&(t_base_world * target.0), &q)?.nearest().copied() else {
                 break;
             };
             if (next - q).amax() > max_step {
                 break;
             }
             q = next;
-            worst = worst.min(arm.jacobian(&q).determinant().abs());
-            reached += 1;
+            r.manipulability = r.manipulability.min(arm.jacobian(&q).determinant().abs());
+            r.utilisation = r.utilisation.max(load(target));
+            r.reached += 1;
         }
-        let better = best.as_ref().is_none_or(|b| {
-            (reached, worst).partial_cmp(&(b.reached, b.manipulability)) == Some(std::cmp::Ordering::Greater)
-        });
-        if better {
-            best = Some(Reach {
-                q_start: *q0,
-                reached,
-                manipulability: worst,
-            });
+        if best
+            .as_ref()
+            .is_none_or(|b| r.beats(b, cfg.max_thrust_utilisation))
+        {
+            best = Some(r);
         }
     }
     Ok(best)
 }
 
-/// The hover point for `trajectory` (world frame) with the controller's `arm`.
+/// The hover point for `trajectory` (world frame) with the controller's `arm` and `thrusters`.
 ///
 /// # Errors
 /// [`Error::Input`] for a bad configuration or an empty trajectory; [`Error::Failed`] (stage
 /// `hover`) if no candidate reaches the whole trajectory, saying which part is out of reach.
-pub fn choose(arm: &Arm, trajectory: &Trajectory, cfg: &HoverConfig) -> Result<Hover> {
+pub fn choose(arm: &Arm, thrusters: &Thrusters, trajectory: &Trajectory, cfg: &HoverConfig) -> Result<Hover> {
     cfg.validate()?;
     let n = trajectory.samples.len();
     if n == 0 {
@@ -176,32 +232,41 @@ pub fn choose(arm: &Arm, trajectory: &Trajectory, cfg: &HoverConfig) -> Result<H
     if idx.last() != Some(&(n - 1)) {
         idx.push(n - 1);
     }
-    let targets: Vec<Isometry3<f64>> = idx
+    let targets: Vec<(Isometry3<f64>, Vector3<f64>)> = idx
         .iter()
         .map(|&i| {
             let s = &trajectory.samples[i];
-            Isometry3::from_parts(Translation3::from(s.position.coords), s.orientation)
+            let pose = Isometry3::from_parts(Translation3::from(s.position.coords), s.orientation);
+            // The surface pushes back along −k and resists the motion along x_G.
+            let f_env = if matches!(s.phase, Phase::Dwell | Phase::Contact) {
+                -s.k * s.force - s.orientation * Vector3::x() * cfg.drag_n
+            } else {
+                Vector3::zeros()
+            };
+            (pose, f_env)
         })
         .collect();
-    let centroid = targets.iter().map(|t| t.translation.vector).sum::<Vector3<f64>>() / targets.len() as f64;
+    let centroid = targets
+        .iter()
+        .map(|(t, _)| t.translation.vector)
+        .sum::<Vector3<f64>>()
+        / targets.len() as f64;
     // NED: "higher" is smaller z.
     let top = targets
         .iter()
-        .map(|t| t.translation.vector.z)
+        .map(|(t, _)| t.translation.vector.z)
         .fold(f64::INFINITY, f64::min);
     let z_max = top - cfg.min_clearance_m;
     let mut evaluated = 0usize;
     let mut best: Option<(Isometry3<f64>, Reach)> = None;
     let mut consider = |pose: Isometry3<f64>, best: &mut Option<(Isometry3<f64>, Reach)>| -> Result<()> {
         evaluated += 1;
-        if let Some(r) = follow(arm, &pose, &targets, cfg.max_joint_step_rad)? {
-            let better = best.as_ref().is_none_or(|(_, b)| {
-                (r.reached, r.manipulability).partial_cmp(&(b.reached, b.manipulability))
-                    == Some(std::cmp::Ordering::Greater)
-            });
-            if better {
-                *best = Some((pose, r));
-            }
+        if let Some(r) = follow(arm, thrusters, &pose, &targets, cfg)?
+            && best
+                .as_ref()
+                .is_none_or(|(_, b)| r.beats(b, cfg.max_thrust_utilisation))
+        {
+            *best = Some((pose, r));
         }
         Ok(())
     };
@@ -318,7 +383,7 @@ mod tests {
             yaw_step_deg: 90.0,
             ..HoverConfig::default()
         };
-        let h = choose(&mb.arm, &traj, &cfg).unwrap();
+        let h = choose(&mb.arm, &thrusters(), &traj, &cfg).unwrap();
         assert!(h.manipulability > 0.0);
         // Check it independently: every sample has an IK solution from the chosen pose.
         let t_base_world = (h.t_world_body * mb.arm.t_body_base).inverse();
@@ -340,6 +405,27 @@ mod tests {
         assert!(h.t_world_body.translation.z <= top - cfg.min_clearance_m + 1e-12);
     }
 
+    fn thrusters() -> Thrusters {
+        Thrusters::new(&UvmsModel::default().thrusters).unwrap()
+    }
+
+    /// Dragging the tool along the world's y axis: the vehicle turns to take the drag along
+    /// its own x axis (surge thrusters, pitch) rather than across it (one sway thruster, roll).
+    #[test]
+    fn a_drag_along_the_path_turns_the_vehicle_along_it() {
+        let mb = Multibody::new(&UvmsModel::default()).unwrap();
+        let traj = stroke(&mb, &Isometry3::identity(), 0.3);
+        let cfg = HoverConfig {
+            step_m: 0.15,
+            yaw_step_deg: 45.0,
+            drag_n: 70.0,
+            ..HoverConfig::default()
+        };
+        let h = choose(&mb.arm, &thrusters(), &traj, &cfg).unwrap();
+        let x_body = h.t_world_body.rotation * Vector3::x();
+        assert!(x_body.y.abs() > 0.7, "heading {x_body}");
+    }
+
     #[test]
     fn a_trajectory_out_of_reach_is_a_failed_run_naming_the_point() {
         let mb = Multibody::new(&UvmsModel::default()).unwrap();
@@ -350,7 +436,7 @@ mod tests {
             yaw_step_deg: 90.0,
             ..HoverConfig::default()
         };
-        let e = choose(&mb.arm, &traj, &cfg).unwrap_err();
+        let e = choose(&mb.arm, &thrusters(), &traj, &cfg).unwrap_err();
         assert_eq!(e.exit_code(), 1);
         assert!(e.to_string().contains("out of reach"), "{e}");
     }

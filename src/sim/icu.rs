@@ -13,6 +13,13 @@
 //! not follow them — at every contact transient — their difference enters `M_ez`, and through
 //! the compensation of `M_ez` in the drives it feeds itself.
 //!
+//! The controller's model differs from the arm's (heavier links, less drag): in free space
+//! `M_ez` is not zero but the model's error, mostly the weight and buoyancy on the shoulder.
+//! During the trajectory's approach, until the identified force first exceeds
+//! `tare_until_n` (the touch), the ICU zeroes it, as one zeroes a force sensor before
+//! contact: an offset follows `M_ez` with the time constant `tare_s` and is subtracted from
+//! then on.
+//!
 //! Eq. (3)–(12): a point contact at the tool tip loads joint `i` with `M_ez,i = J_v,iᵀ F_imp`
 //! (the `J_v` columns of the tool-point Jacobian; `F_imp = −F_e` the force the tool exerts).
 //! The seed solves three of these equations in closed form for one configuration (eq. 12 for
@@ -28,7 +35,7 @@ use crate::arm::dynamics::BaseMotion;
 use crate::arm::{Arm, JointVector};
 use crate::config::{non_negative, positive};
 use crate::error::Result;
-use crate::integrate::lag_gain_hz;
+use crate::integrate::{lag_gain, lag_gain_hz};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -68,6 +75,10 @@ pub struct IcuConfig {
     /// Cut-off of the filter on the rates' derivative and on `M_dz` (`acceleration =
     /// "measured"`), Hz.
     pub filter_hz: f64,
+    /// Time constant of the zeroing of `M_ez` in free space, s (0: no zeroing).
+    pub tare_s: f64,
+    /// The zeroing stops for good once the identified force exceeds this, N.
+    pub tare_until_n: f64,
 }
 
 impl Default for IcuConfig {
@@ -77,6 +88,8 @@ impl Default for IcuConfig {
             singular_angle_rad: 0.05,
             acceleration: Acceleration::Measured,
             filter_hz: 20.0,
+            tare_s: 1.0,
+            tare_until_n: 5.0,
         }
     }
 }
@@ -88,6 +101,8 @@ impl IcuConfig {
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
         non_negative("sim.icu.singular_angle_rad", self.singular_angle_rad)?;
+        non_negative("sim.icu.tare_s", self.tare_s)?;
+        non_negative("sim.icu.tare_until_n", self.tare_until_n)?;
         positive("sim.icu.filter_hz", self.filter_hz)
     }
 }
@@ -107,6 +122,10 @@ pub struct Icu {
     cfg: IcuConfig,
     /// Filtered rates and filtered `M_dz` (none before the first measurement).
     filtered: Option<(JointVector, JointVector)>,
+    /// The free-space offset of `M_ez`, N·m.
+    offset: JointVector,
+    /// Whether the tool has touched (the zeroing is over).
+    touched: bool,
 }
 
 impl Icu {
@@ -115,18 +134,22 @@ impl Icu {
         Icu {
             cfg: *cfg,
             filtered: None,
+            offset: JointVector::zeros(),
+            touched: false,
         }
     }
 
     /// Eq. (1)–(12) for the measurements `m` of a control period `dt`, with `arm` the
     /// controller's model, `commanded` the joint accelerations commanded when the measurements
-    /// were taken and `base` the base motion it believes.
+    /// were taken, `base` the base motion it believes and `approach` whether the trajectory is
+    /// in its approach (the offset is learnt then, until the touch).
     pub fn identify(
         &mut self,
         arm: &Arm,
         m: &Measurements,
         commanded: &JointVector,
         base: &BaseMotion,
+        approach: bool,
         dt: f64,
     ) -> Identification {
         let (qdd, m_dz) = match self.cfg.acceleration {
@@ -141,7 +164,13 @@ impl Icu {
             }
         };
         let m_wz = arm.inverse_dynamics(&m.q, &m.qd, &qdd, base, None).tau_rigid;
-        let m_ez = m_dz - m_wz;
+        let raw = m_dz - m_wz;
+        let f_imp_base = tool_force(arm, &m.q, &(raw - self.offset), &self.cfg);
+        self.touched |= !approach || f_imp_base.norm() > self.cfg.tare_until_n;
+        if !self.touched && self.cfg.tare_s > 0.0 {
+            self.offset += (raw - self.offset) * lag_gain(dt, self.cfg.tare_s);
+        }
+        let m_ez = raw - self.offset;
         Identification {
             m_ez,
             f_imp_base: tool_force(arm, &m.q, &m_ez, &self.cfg),

@@ -3,7 +3,9 @@
 //!
 //! One module per block of Figure 4:
 //! - [`contact`]: the tool against the *true* surface (penalty, friction, soil) — plant side;
-//! - [`sensors`] (NS): encoders, joint-torque sensors, gyros, the delayed vision fix;
+//! - [`sensors`] and [`navigation`] (NS): encoders, joint-torque sensors, gyros,
+//!   accelerometers, the delayed vision fix, and the attitude, position and velocity estimated
+//!   from them;
 //! - [`icu`] (ICU): eq. (1)–(12), the tool force from the external joint moments;
 //! - [`fcu`] (FCU): eq. (13)–(16), the force PID giving the extra tool offset;
 //! - [`tcu`] (TCU): eq. (18), the desired tool pose corrected by the measured vehicle pose, and
@@ -26,6 +28,7 @@ pub mod fcu;
 pub mod hover;
 pub mod icu;
 pub mod joints;
+pub mod navigation;
 pub mod record;
 pub mod sensors;
 pub mod tcu;
@@ -38,7 +41,7 @@ use crate::error::{Error, Result};
 use crate::integrate::Integrator;
 use crate::mesh::TriangleMesh;
 use crate::model::UvmsModel;
-use crate::multibody::{Inputs, Multibody, State};
+use crate::multibody::{Accelerations, Inputs, Multibody, State};
 use crate::plant::{Plant, PlantInput};
 use crate::spatial_algebra::Force;
 use crate::trajectory::{Phase, Trajectory};
@@ -49,11 +52,11 @@ use hover::{Hover, HoverConfig};
 use icu::{Icu, IcuConfig};
 use joints::{JointControl, JointControlConfig};
 use nalgebra::{Isometry3, Translation3, Vector3, Vector6};
+use navigation::{Navigation, NavigationConfig};
 use record::{Figures, Recorder, Row};
 use sensors::{SensorConfig, Sensors, Truth};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
-use tcu::TcuConfig;
 use vehicle_control::{VehicleControl, VehicleControlConfig};
 
 /// The frame the contact surface's file is given in.
@@ -209,14 +212,14 @@ pub struct SimConfig {
     pub settle_time_s: f64,
     /// Contact model.
     pub contact: ContactConfig,
-    /// NS.
+    /// NS: the sensors.
     pub sensors: SensorConfig,
+    /// NS: the navigation filters.
+    pub navigation: NavigationConfig,
     /// ICU.
     pub icu: IcuConfig,
     /// FCU.
     pub force: FcuConfig,
-    /// TCU.
-    pub tcu: TcuConfig,
     /// Joint controllers.
     pub joints: JointControlConfig,
     /// AUV SS.
@@ -246,9 +249,9 @@ impl Default for SimConfig {
             settle_time_s: 1.5,
             contact: ContactConfig::default(),
             sensors: SensorConfig::default(),
+            navigation: NavigationConfig::default(),
             icu: IcuConfig::default(),
             force: FcuConfig::default(),
-            tcu: TcuConfig::default(),
             joints: JointControlConfig::default(),
             vehicle: VehicleControlConfig::default(),
             hover: HoverConfig::default(),
@@ -286,9 +289,9 @@ impl SimConfig {
         non_negative("sim.dwell.max_wait_s", self.dwell.max_wait_s)?;
         self.contact.validate()?;
         self.sensors.validate()?;
+        self.navigation.validate()?;
         self.icu.validate()?;
         self.force.validate()?;
-        self.tcu.validate()?;
         self.joints.validate()?;
         self.vehicle.validate()?;
         self.hover.validate()?;
@@ -356,17 +359,17 @@ pub fn simulate(
     let ctrl = Multibody::new(&ctrl_model)?;
     let arm = &ctrl.arm;
     let g = ctrl_model.environment.gravity;
-    let hover = hover::choose(arm, trajectory, &cfg.hover)?;
+    let allocator = Thrusters::new(&ctrl_model.thrusters)?;
+    let hover = hover::choose(arm, &allocator, trajectory, &cfg.hover)?;
     let h = hover.t_world_body;
     let mut plant = Plant::new(&plant_model, State::at_rest(h, hover.q_start), cfg.integrator)?;
-    let allocator = Thrusters::new(&ctrl_model.thrusters)?;
     let contact = Contact::new(surface, &cfg.contact)?;
     let mut sensors = Sensors::new(&cfg.sensors, cfg.seed, h.translation.vector);
     let mut fcu = Fcu::new(&cfg.force);
     let mut icu = Icu::new(&cfg.icu);
     let mut joints = JointControl::new(&cfg.joints, &hover.q_start);
     let mut vc = VehicleControl::new(&cfg.vehicle, &h);
-    let mut fix = tcu::FixFilter::new(&cfg.tcu, h.translation.vector);
+    let mut nav = Navigation::new(&cfg.navigation, h.translation.vector, g);
 
     // The station was held before the run: the drives hold the arm's static load and the
     // thrusters the static wrench of the vehicle and the arm.
@@ -382,7 +385,7 @@ pub fn simulate(
     let zero = JointVector::zeros();
     let static_id = arm.inverse_dynamics(&hover.q_start, &zero, &zero, &at_rest, None);
     let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
-    let tau_v0 = vc.wrench(&held_station(&hover), &ctrl.vehicle, g, &open0, 0.0);
+    let tau_v0 = vc.wrench(&held_station(&hover, g), &nav, &ctrl.vehicle, g, &open0, 0.0);
     plant.thrusters.hold(&allocator.allocate(&tau_v0).thrusts)?;
     let first_eval = plant.system.accelerations(
         &plant.state,
@@ -392,7 +395,18 @@ pub fn simulate(
             f_env_on_tool: Force::ZERO,
         },
     )?;
-    let mut truth_prev = truth_of(&plant.state, &first_eval.shaft_torque);
+    let mut truth_prev = truth_of(&plant.state, &first_eval, g);
+    // NS levelled the accelerometers while the station was held (at rest: `a = 0`).
+    let at_rest = Truth {
+        specific_force: h.rotation.inverse() * Vector3::new(0.0, 0.0, -g),
+        ..truth_prev
+    };
+    let levelling = (cfg.navigation.levelling_s * cfg.control_rate_hz)
+        .round()
+        .max(1.0) as usize;
+    let f_mean = (0..levelling).fold(Vector3::zeros(), |acc, _| acc + sensors.accelerometers(&at_rest))
+        / levelling as f64;
+    nav.level(&f_mean, &h.rotation);
 
     let force_setpoint = trajectory.samples.iter().map(|s| s.force).fold(0.0, f64::max);
     let log_every = ((cfg.control_rate_hz / cfg.log_rate_hz).round() as usize).max(1);
@@ -410,8 +424,9 @@ pub fn simulate(
         if clock > t_end + cfg.tail_s - 1e-12 {
             break;
         }
-        // NS: what the controllers know (of the state one period ago), the attitude filtered.
-        let meas = vc.navigate(sensors.read(t, &truth_prev), dt);
+        // NS: what the controllers know (of the state one period ago), with the attitude,
+        // position and velocity estimated.
+        let meas = nav.update(sensors.read(t, &truth_prev), t, dt);
         let omega = meas.omega;
         let nu_est = Vector6::new(0.0, 0.0, 0.0, omega.x, omega.y, omega.z);
         let base = BaseMotion::on_vehicle(
@@ -422,14 +437,16 @@ pub fn simulate(
             g,
             &Vector3::zeros(),
         );
-        // ICU (the commanded accelerations are its fallback, `[sim.icu] acceleration`).
-        let id = icu.identify(arm, &meas, &joints.commanded, &base, dt);
-        let r_w0 = meas.attitude * arm.t_body_base.rotation;
-        let f_imp_est = r_w0 * id.f_imp_base;
         // The desired tool state.
         let s = trajectory
             .sample_at(clock)
             .ok_or_else(|| Error::input("trajectory", "has no samples"))?;
+        // ICU (the commanded accelerations are its fallback, `[sim.icu] acceleration`), zeroed
+        // in the approach until the touch.
+        let approach = s.phase == Phase::Approach;
+        let id = icu.identify(arm, &meas, &joints.commanded, &base, approach, dt);
+        let r_w0 = meas.attitude * arm.t_body_base.rotation;
+        let f_imp_est = r_w0 * id.f_imp_base;
         // FCU.
         // Force control where the trajectory asks for a force; a sampler dragged at a set depth
         // (force 0) is position-controlled.
@@ -448,9 +465,8 @@ pub fn simulate(
             Translation3::from(s.position.coords + s.k * offset),
             s.orientation,
         );
-        let smoothed = fix.update(&meas.position, dt);
         let believed = if cfg.scenario.trajectory_correction {
-            tcu::vehicle_pose(&smoothed, &meas.attitude)
+            tcu::vehicle_pose(&nav.position, &meas.attitude)
         } else {
             h
         };
@@ -468,7 +484,7 @@ pub fn simulate(
         } else {
             Force::ZERO
         };
-        let tau_vehicle = vc.wrench(&meas, &ctrl.vehicle, g, &open, dt);
+        let tau_vehicle = vc.wrench(&meas, &nav, &ctrl.vehicle, g, &open, dt);
         let alloc = allocator.allocate(&tau_vehicle);
         if alloc.scale < 1.0 {
             saturated += 1;
@@ -513,7 +529,7 @@ pub fn simulate(
             r: (state.t_world_body.translation.vector - h.translation.vector).norm(),
             attitude: state.t_world_body.rotation.angle_to(&h.rotation),
         });
-        let mut shaft = JointVector::zeros();
+        let mut first_acc = None;
         for sub in 0..cfg.plant_substeps {
             if sub > 0 {
                 cs = touch(&contact, &plant.system, &plant.state).1;
@@ -526,12 +542,12 @@ pub fn simulate(
             let report = plant
                 .step(sub_dt, &input)
                 .map_err(|e| diverged(&e, t, &plant.state))?;
-            if sub == 0 {
-                shaft = report.accelerations.shaft_torque;
-            }
+            first_acc.get_or_insert(report.accelerations);
         }
         check_runaway(&plant.state, &h, t + dt)?;
-        truth_prev = truth_of(&state, &shaft);
+        if let Some(acc) = &first_acc {
+            truth_prev = truth_of(&state, acc, g);
+        }
         m_ez_true_prev = m_ez_true;
         // The trajectory's clock: it waits at the end of a dwell until the force has settled.
         let next = clock + dt;
@@ -578,7 +594,7 @@ pub fn simulate(
 }
 
 /// What the sensors report of the station held before the run (no vision fix yet).
-fn held_station(hover: &Hover) -> sensors::Measurements {
+fn held_station(hover: &Hover, g: f64) -> sensors::Measurements {
     let h = &hover.t_world_body;
     sensors::Measurements {
         q: hover.q_start,
@@ -586,6 +602,7 @@ fn held_station(hover: &Hover) -> sensors::Measurements {
         m_dz: JointVector::zeros(),
         attitude: h.rotation,
         omega: Vector3::zeros(),
+        specific_force: h.rotation.inverse() * Vector3::new(0.0, 0.0, -g),
         position: h.translation.vector,
         position_time: f64::NEG_INFINITY,
     }
@@ -599,15 +616,21 @@ fn touch(contact: &Contact, system: &Multibody, s: &State) -> (Isometry3<f64>, c
     (t_world_tool, state)
 }
 
-/// What the sensors read of `s` (with the shaft torques of its step).
-fn truth_of(s: &State, shaft: &JointVector) -> Truth {
+/// What the sensors read of `s` with the accelerations `acc` of its step (gravity `g`).
+fn truth_of(s: &State, acc: &Accelerations, g: f64) -> Truth {
+    let r = s.t_world_body.rotation;
+    let v = Vector3::new(s.nu[0], s.nu[1], s.nu[2]);
+    let omega = Vector3::new(s.nu[3], s.nu[4], s.nu[5]);
+    // The classical acceleration of `C`'s origin from the body-axes rate of ν (Fossen).
+    let a = Vector3::new(acc.nu_dot[0], acc.nu_dot[1], acc.nu_dot[2]) + omega.cross(&v);
     Truth {
         q: s.q,
         qd: s.qd,
-        shaft_torque: *shaft,
-        attitude: s.t_world_body.rotation,
-        omega: Vector3::new(s.nu[3], s.nu[4], s.nu[5]),
+        shaft_torque: acc.shaft_torque,
+        attitude: r,
+        omega,
         position: s.t_world_body.translation.vector,
+        specific_force: a - r.inverse() * Vector3::new(0.0, 0.0, g),
     }
 }
 

@@ -4,6 +4,8 @@
 //! - joint encoders (quantised angle) and tachometers (noisy rate);
 //! - one-axis joint-torque sensors on the drives' output shafts: `M_dz` of eq. (1), with noise;
 //! - gyros (an attitude and heading reference): attitude and body rates without delay, with noise;
+//! - accelerometers (the inertial unit at `C`'s origin): the specific force `a − g` in `C` axes,
+//!   with noise and a constant bias per axis (drawn once from the seed);
 //! - the vision system: the vehicle's position relative to the (fixed) object, delayed by
 //!   0.25 s, at a finite rate, with noise — the seed's delayed fix that eq. (18) works with.
 //!
@@ -33,6 +35,10 @@ pub struct SensorConfig {
     pub attitude_noise_rad: f64,
     /// Standard deviation of the gyro rates, rad/s.
     pub gyro_noise_rad_s: f64,
+    /// Standard deviation of the accelerometers, m/s².
+    pub accelerometer_noise_m_s2: f64,
+    /// Standard deviation of the accelerometers' constant bias (one draw per axis), m/s².
+    pub accelerometer_bias_m_s2: f64,
     /// Delay of the vision system's position fix, s (the seed's 0.25 s).
     pub vision_delay_s: f64,
     /// Rate of the vision fixes, Hz.
@@ -49,6 +55,8 @@ impl Default for SensorConfig {
             torque_noise_nm: 0.05,
             attitude_noise_rad: 2e-4,
             gyro_noise_rad_s: 1e-3,
+            accelerometer_noise_m_s2: 0.02,
+            accelerometer_bias_m_s2: 0.01,
             vision_delay_s: 0.25,
             vision_rate_hz: 10.0,
             vision_noise_m: 1e-3,
@@ -67,6 +75,14 @@ impl SensorConfig {
         non_negative("sim.sensors.torque_noise_nm", self.torque_noise_nm)?;
         non_negative("sim.sensors.attitude_noise_rad", self.attitude_noise_rad)?;
         non_negative("sim.sensors.gyro_noise_rad_s", self.gyro_noise_rad_s)?;
+        non_negative(
+            "sim.sensors.accelerometer_noise_m_s2",
+            self.accelerometer_noise_m_s2,
+        )?;
+        non_negative(
+            "sim.sensors.accelerometer_bias_m_s2",
+            self.accelerometer_bias_m_s2,
+        )?;
         non_negative("sim.sensors.vision_delay_s", self.vision_delay_s)?;
         non_negative("sim.sensors.vision_noise_m", self.vision_noise_m)?;
         positive("sim.sensors.vision_rate_hz", self.vision_rate_hz)
@@ -88,6 +104,8 @@ pub struct Truth {
     pub omega: Vector3<f64>,
     /// Vehicle position (origin of `C`) in the world, m.
     pub position: Vector3<f64>,
+    /// Specific force at `C`'s origin (its acceleration minus gravity), `C` axes, m/s².
+    pub specific_force: Vector3<f64>,
 }
 
 /// What the controllers get.
@@ -103,6 +121,8 @@ pub struct Measurements {
     pub attitude: UnitQuaternion<f64>,
     /// Body rates from the gyros, rad/s.
     pub omega: Vector3<f64>,
+    /// Specific force from the accelerometers, `C` axes, m/s².
+    pub specific_force: Vector3<f64>,
     /// The latest vision fix of the vehicle's position (world), m.
     pub position: Vector3<f64>,
     /// The time the latest fix refers to (its measurement time minus the delay), s.
@@ -118,19 +138,23 @@ pub struct Sensors {
     pending: VecDeque<(f64, Vector3<f64>)>,
     fix: (f64, Vector3<f64>),
     next_fix: f64,
+    accelerometer_bias: Vector3<f64>,
 }
 
 impl Sensors {
     /// Sensors seeded with `seed`; before the first delayed fix arrives, the vision system
     /// reports `position0` (the vehicle held its station before the run).
     pub fn new(cfg: &SensorConfig, seed: u64, position0: Vector3<f64>) -> Self {
-        Sensors {
+        let mut s = Sensors {
             cfg: *cfg,
             rng: ChaCha8Rng::seed_from_u64(seed),
             pending: VecDeque::new(),
             fix: (-cfg.vision_delay_s, position0),
             next_fix: 0.0,
-        }
+            accelerometer_bias: Vector3::zeros(),
+        };
+        s.accelerometer_bias = Vector3::from_fn(|_, _| s.noise(cfg.accelerometer_bias_m_s2));
+        s
     }
 
     fn noise(&mut self, sigma: f64) -> f64 {
@@ -139,6 +163,12 @@ impl Sensors {
         } else {
             0.0
         }
+    }
+
+    /// Reads the accelerometers alone (as at the station held before the run).
+    pub fn accelerometers(&mut self, truth: &Truth) -> Vector3<f64> {
+        let sigma = self.cfg.accelerometer_noise_m_s2;
+        truth.specific_force + self.accelerometer_bias + Vector3::from_fn(|_, _| self.noise(sigma))
     }
 
     /// Reads every sensor at time `t`.
@@ -153,6 +183,7 @@ impl Sensors {
         let tilt = Vector3::from_fn(|_, _| self.noise(c.attitude_noise_rad));
         let attitude = truth.attitude * UnitQuaternion::from_scaled_axis(tilt);
         let omega = truth.omega.map(|v| v + self.noise(c.gyro_noise_rad_s));
+        let specific_force = self.accelerometers(truth);
         // Vision: a fix every 1/rate, reporting where the vehicle was `delay` ago.
         self.pending.push_back((t, truth.position));
         if t + 1e-12 >= self.next_fix {
@@ -174,6 +205,7 @@ impl Sensors {
             m_dz,
             attitude,
             omega,
+            specific_force,
             position: self.fix.1,
             position_time: self.fix.0,
         }
@@ -192,6 +224,7 @@ mod tests {
             attitude: UnitQuaternion::identity(),
             omega: Vector3::zeros(),
             position: Vector3::new(x, 0.0, 0.0),
+            specific_force: Vector3::zeros(),
         }
     }
 

@@ -1,69 +1,18 @@
 //! TCU, the trajectory correction unit of Figure 4: eq. (18).
 //!
 //! The desired tool pose (`P*`, `X*_G`, `Y*_G` in the world `W`, plus the FCU's `ΔP* = x̃ k`)
-//! is expressed in the vehicle frame `C` with the vehicle's *measured* displacement `r` (the
-//! delayed vision fix) and attitude `ᴼ_C R` (the gyros):
+//! is expressed in the vehicle frame `C` with the vehicle's displacement `r` and attitude
+//! `ᴼ_C R` as NS knows them:
 //! `ᶜP* = ᴼ_C Rᵀ (P* − r)`, `ᶜX*_G = ᴼ_C Rᵀ X*_G`, `ᶜY*_G = ᴼ_C Rᵀ Y*_G`,
 //! then in the arm's base frame, and the analytic inverse kinematics gives the joint set-points
-//! (the solution nearest the previous set-point; no Jacobian inverse). With the correction
-//! switched off (an ablation) the vehicle is assumed to sit at its stabilisation point.
-//! The fix arrives in steps (a new one every 1/rate s); a first-order filter of time constant
-//! `fix_filter_s` smooths the steps so the set-points do not jump.
+//! (the solution nearest the previous set-point; no Jacobian inverse). The displacement is
+//! NS's estimate of where the vehicle is now ([`super::navigation`]: the accelerometers
+//! between the delayed fixes). With the correction switched off (an ablation) the vehicle is
+//! assumed to sit at its stabilisation point.
 
 use crate::arm::{Arm, JointVector};
-use crate::config::non_negative;
 use crate::error::Result;
-use crate::integrate::lag_gain;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use serde::{Deserialize, Serialize};
-
-/// TCU parameters (`[sim.tcu]`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct TcuConfig {
-    /// Time constant of the filter on the vision fix, s (0: none).
-    pub fix_filter_s: f64,
-}
-
-impl Default for TcuConfig {
-    fn default() -> Self {
-        TcuConfig { fix_filter_s: 0.1 }
-    }
-}
-
-impl TcuConfig {
-    /// Checks the values.
-    ///
-    /// # Errors
-    /// [`Error::Input`] naming the bad field.
-    pub fn validate(&self) -> Result<()> {
-        non_negative("sim.tcu.fix_filter_s", self.fix_filter_s)
-    }
-}
-
-/// The smoothed vision fix.
-#[derive(Debug, Clone, Copy)]
-pub struct FixFilter {
-    tau: f64,
-    /// The filtered position, m.
-    pub position: Vector3<f64>,
-}
-
-impl FixFilter {
-    /// A filter settled at `position`.
-    pub fn new(cfg: &TcuConfig, position: Vector3<f64>) -> Self {
-        FixFilter {
-            tau: cfg.fix_filter_s,
-            position,
-        }
-    }
-
-    /// One control period `dt` with the latest fix `fix`.
-    pub fn update(&mut self, fix: &Vector3<f64>, dt: f64) -> Vector3<f64> {
-        self.position += (fix - self.position) * lag_gain(dt, self.tau);
-        self.position
-    }
-}
 
 /// The desired tool pose in the arm's base frame (eq. 18), from the desired pose in the world
 /// and the vehicle pose the controller believes (`t_world_body`).

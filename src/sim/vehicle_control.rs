@@ -1,8 +1,8 @@
 //! AUV SS, the vehicle's stabilisation system of Figure 4, in the hovering mode.
 //!
 //! The body wrench asked of the thrusters is the sum of
-//! - a closed loop (PID) on the *measured* pose error: position from the delayed vision fix,
-//!   velocity from the filtered differences of successive fixes, attitude and rates from the
+//! - a closed loop (PID) on the pose error as NS knows it: position and velocity from the
+//!   navigation filter (accelerometers and the delayed vision fix), attitude and rates from the
 //!   gyros; errors in the body frame `C`;
 //! - the model's restoring wrench `g(η)` of the vehicle itself (weight at the centre of gravity,
 //!   buoyancy at the centre of buoyancy), cancelled at the measured attitude;
@@ -12,19 +12,14 @@
 //!   (`F_e`, `M_e`) — computed by the caller with [`crate::arm::Arm::inverse_dynamics`].
 //!
 //! The wrench is then allocated to the thrusters ([`crate::vehicle::thrusters::Thrusters::allocate`]).
-//!
-//! The attitude all controllers use is [`VehicleControl::navigate`]'s: the gyros' rates
-//! integrated and pulled towards the measured attitude by a complementary filter. Fed raw, the
-//! attitude's noise, times the 1.5 m lever of the arm, shakes the IK set-points at the control
-//! rate and the arm's reaction on the vehicle with them.
 
+use super::navigation::Navigation;
 use super::sensors::Measurements;
 use crate::body::Body;
 use crate::config::non_negative;
 use crate::error::Result;
-use crate::integrate::lag_gain;
 use crate::spatial_algebra::Force;
-use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{Isometry3, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
 /// Stabilisation gains (`[sim.vehicle]`).
@@ -43,23 +38,20 @@ pub struct VehicleControlConfig {
     pub attitude_ki: f64,
     /// Attitude rate gain, N·m·s/rad.
     pub attitude_kd: f64,
-    /// Time constant of the low-pass filter on the velocity from successive fixes, s.
-    pub velocity_filter_s: f64,
-    /// Time constant of the complementary filter on the attitude, s.
-    pub attitude_filter_s: f64,
 }
 
+/// The position gains are those a 0.25 s old feedback did not allow: on the navigation's
+/// estimate (no delay) the position loop is about 1.8 rad/s, critically damped, with the
+/// vehicle's mass and added mass (≈ 600 kg).
 impl Default for VehicleControlConfig {
     fn default() -> Self {
         VehicleControlConfig {
-            position_kp: 400.0,
-            position_ki: 20.0,
-            position_kd: 1200.0,
+            position_kp: 2000.0,
+            position_ki: 50.0,
+            position_kd: 2200.0,
             attitude_kp: 600.0,
             attitude_ki: 60.0,
             attitude_kd: 300.0,
-            velocity_filter_s: 0.3,
-            attitude_filter_s: 1.0,
         }
     }
 }
@@ -75,9 +67,7 @@ impl VehicleControlConfig {
         non_negative("sim.vehicle.position_kd", self.position_kd)?;
         non_negative("sim.vehicle.attitude_kp", self.attitude_kp)?;
         non_negative("sim.vehicle.attitude_ki", self.attitude_ki)?;
-        non_negative("sim.vehicle.attitude_kd", self.attitude_kd)?;
-        non_negative("sim.vehicle.velocity_filter_s", self.velocity_filter_s)?;
-        non_negative("sim.vehicle.attitude_filter_s", self.attitude_filter_s)
+        non_negative("sim.vehicle.attitude_kd", self.attitude_kd)
     }
 }
 
@@ -87,10 +77,6 @@ pub struct VehicleControl {
     cfg: VehicleControlConfig,
     hover: Isometry3<f64>,
     integral: Vector6<f64>,
-    last_fix: (f64, Vector3<f64>),
-    velocity: Vector3<f64>,
-    /// The filtered attitude (none before the first measurement).
-    attitude: Option<UnitQuaternion<f64>>,
 }
 
 impl VehicleControl {
@@ -101,52 +87,28 @@ impl VehicleControl {
             cfg: *cfg,
             hover: *hover,
             integral: Vector6::zeros(),
-            last_fix: (f64::NEG_INFINITY, hover.translation.vector),
-            velocity: Vector3::zeros(),
-            attitude: None,
         }
     }
 
-    /// Takes the measurements `m` of a control period `dt` and returns them with the attitude
-    /// the controllers work with: the gyros' rates integrated and pulled towards the measured
-    /// attitude with the time constant `attitude_filter_s` (the rates' noise integrates to
-    /// little, the attitude's noise is averaged).
-    pub fn navigate(&mut self, mut m: Measurements, dt: f64) -> Measurements {
-        let predicted = self
-            .attitude
-            .map_or(m.attitude, |a| a * UnitQuaternion::from_scaled_axis(m.omega * dt));
-        let k = lag_gain(dt, self.cfg.attitude_filter_s);
-        let attitude = predicted.slerp(&m.attitude, k);
-        self.attitude = Some(attitude);
-        m.attitude = attitude;
-        m
-    }
-
-    /// The body wrench (`C` axes, about `C`'s origin) for the measurements `m`, with
+    /// The body wrench (`C` axes, about `C`'s origin) for the measurements `m` (attitude and
+    /// rates) and the navigation's position and velocity `nav`, with
     /// `vehicle` the controller's model of the vehicle body, `g` gravity (m/s²) and
     /// `open_loop` the wrench of eq. (17) to add (already negated: what the thrusters must
     /// supply to cancel the manipulator's action), over a control period `dt`.
     pub fn wrench(
         &mut self,
         m: &Measurements,
+        nav: &Navigation,
         vehicle: &Body,
         g: f64,
         open_loop: &Force,
         dt: f64,
     ) -> Vector6<f64> {
         let c = &self.cfg;
-        if m.position_time > self.last_fix.0 {
-            if self.last_fix.0.is_finite() {
-                let span = m.position_time - self.last_fix.0;
-                let raw = (m.position - self.last_fix.1) / span;
-                self.velocity += (raw - self.velocity) * lag_gain(span, c.velocity_filter_s);
-            }
-            self.last_fix = (m.position_time, m.position);
-        }
         let r = m.attitude;
-        let e_pos = r.inverse() * (self.hover.translation.vector - m.position);
+        let e_pos = r.inverse() * (self.hover.translation.vector - nav.position);
         let e_att = (r.inverse() * self.hover.rotation).scaled_axis();
-        let v_body = r.inverse() * self.velocity;
+        let v_body = r.inverse() * nav.velocity;
         let mut e = Vector6::zeros();
         e.fixed_rows_mut::<3>(0).copy_from(&e_pos);
         e.fixed_rows_mut::<3>(3).copy_from(&e_att);

@@ -46,6 +46,8 @@ pub struct Allocation {
     pub in_span: bool,
     /// `‖B T₀ − τ‖` of the unscaled least-squares solution `T₀` (N, N·m mixed).
     pub residual: f64,
+    /// The largest `|T₀_j| / T_max_j` of the unscaled solution (> 1: out of the limits).
+    pub utilisation: f64,
 }
 
 impl Thrusters {
@@ -123,6 +125,7 @@ impl Thrusters {
             scale,
             in_span: residual <= 1e-9 * (1.0 + tau.norm()),
             residual,
+            utilisation: ratio,
         }
     }
 
