@@ -130,8 +130,7 @@ pub fn euclidean_clusters(points: &[Point3<f64>], cfg: &ClusterConfig) -> Result
         .flat_map(|x| (-2..=2).flat_map(move |y| (-2..=2).map(move |z| [x, y, z])))
         .filter(|d| *d > [0, 0, 0])
         .collect();
-    for a in 0..cells.len() {
-        let c = cells[a].0;
+    for (a, &(c, _, _)) in cells.iter().enumerate() {
         for d in &offsets {
             let Some(&b) = lookup.get(&[c[0] + d[0], c[1] + d[1], c[2] + d[2]]) else {
                 continue;

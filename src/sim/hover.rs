@@ -17,8 +17,8 @@
 //! control; along it, the two surge thrusters and the pitch axis). Among the candidates that
 //! reach, those within `max_thrust_utilisation` are preferred, and of them the one with the
 //! largest worst-case manipulability `min |det J(q)|` (Yoshikawa) wins (if none is within,
-//! the least utilised); a second, finer grid around it refines the choice. No candidate reaching the whole trajectory is an error that says
-//! how far the best got.
+//! the least utilised); a second, finer grid around it refines the choice. No candidate
+//! reaching the whole trajectory is an error that says how far the best got.
 
 use crate::arm::{Arm, JointVector};
 use crate::config::{non_negative, positive};
