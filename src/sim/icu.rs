@@ -280,4 +280,58 @@ mod tests {
         let f_imp = tool_force(&arm, &q, &(m_dz - m_wz), &IcuConfig::default());
         assert!((f_imp + f_env_base).norm() < 1e-8, "{f_imp}");
     }
+
+    /// The controller's model errs by a constant moment `b` in free space: zeroed in the
+    /// approach, `M_ez` starts from zero at the touch and then carries exactly the contact's
+    /// moments (the offset frozen); without the zeroing it carries `b`.
+    #[test]
+    fn zeroing_in_the_approach_removes_the_model_offset_and_stops_at_the_touch() {
+        let arm = arm();
+        let q = JointVector::new(0.3, 0.9, -2.0, 0.4, 0.7, -0.5);
+        let zero = JointVector::zeros();
+        let base = BaseMotion::fixed(arm.level_gravity(9.81));
+        let m_wz = arm.inverse_dynamics(&q, &zero, &zero, &base, None).tau_rigid;
+        // A shoulder-heavy error whose apparent tool force (3 N) stays below the touch threshold.
+        let b = JointVector::new(0.2, -0.8, 0.3, 0.0, 0.05, 0.0);
+        let b = b * (3.0 / tool_force(&arm, &q, &b, &IcuConfig::default()).norm());
+        let f = Vector3::new(0.0, 0.0, 60.0);
+        let contact = arm.jacobian(&q).fixed_rows::<3>(0).transpose() * f;
+        let meas = |m_dz: JointVector| Measurements {
+            q,
+            qd: zero,
+            m_dz,
+            attitude: nalgebra::UnitQuaternion::identity(),
+            omega: Vector3::zeros(),
+            specific_force: Vector3::zeros(),
+            position: Vector3::zeros(),
+            position_time: 0.0,
+        };
+        let dt = 1e-3;
+        for (tare_s, free_space_left) in [(1.0, 0.0), (0.0, 1.0)] {
+            let mut icu = Icu::new(&IcuConfig {
+                tare_s,
+                ..IcuConfig::default()
+            });
+            let mut id = None;
+            for _ in 0..8000 {
+                id = Some(icu.identify(&arm, &meas(m_wz + b), &zero, &base, true, dt));
+            }
+            let free = id.unwrap().m_ez;
+            assert!((free - b * free_space_left).amax() < 1e-3 * b.amax(), "{free}");
+            // The touch and the contact phase: the offset no longer moves.
+            for _ in 0..3000 {
+                id = Some(icu.identify(&arm, &meas(m_wz + b + contact), &zero, &base, false, dt));
+            }
+            let loaded = id.unwrap();
+            let expect = contact + b * free_space_left;
+            assert!(
+                (loaded.m_ez - expect).amax() < 1e-3 * contact.amax(),
+                "{}",
+                loaded.m_ez
+            );
+            if tare_s > 0.0 {
+                assert!((loaded.f_imp_base - f).norm() < 0.1, "{}", loaded.f_imp_base);
+            }
+        }
+    }
 }
