@@ -86,6 +86,9 @@ pub fn euclidean_clusters(points: &[Point3<f64>], cfg: &ClusterConfig) -> Result
             large_clusters: 0,
         });
     };
+    if points.len() > u32::MAX as usize {
+        return Err(Error::input("cluster", "more than 4 294 967 295 points"));
+    }
     let tol2 = cfg.tolerance_m * cfg.tolerance_m;
     let edge = cfg.tolerance_m / 3f64.sqrt();
     if (hi - lo).max() / edge > 2f64.powi(40) {
