@@ -194,6 +194,33 @@ fn failed_runs_exit_1_and_bad_input_exits_2() {
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("line 3 column 2"), "{}", stderr(&o));
+    // Named in a configuration file, the polyline is found beside it (not in the working
+    // directory).
+    let sub = dir.path().join("sub");
+    std::fs::create_dir(&sub).unwrap();
+    std::fs::copy(&bad_csv, sub.join("path.csv")).unwrap();
+    let sub_cfg = sub.join("plan.toml");
+    std::fs::write(
+        &sub_cfg,
+        "[plan]\npattern = \"polyline\"\n[plan.polyline]\nfile = \"path.csv\"\n",
+    )
+    .unwrap();
+    let o = run(&[
+        "plan",
+        scan,
+        "--reference",
+        model,
+        "--config",
+        sub_cfg.to_str().unwrap(),
+        "--out",
+        out,
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("path.csv") && stderr(&o).contains("line 3 column 2"),
+        "{}",
+        stderr(&o)
+    );
     let o = run(&[
         "plan",
         "/nonexistent/scan.ply",
