@@ -171,6 +171,14 @@ impl Axis {
     fn fitted((lo, hi): (f64, f64), len: f64, min_gap: f64, cw: Option<f64>) -> Axis {
         let span = (hi / 2.0 - lo / 2.0) * 2.0;
         let mut a = Axis::with_step(lo, hi, nice_step(span / len.max(1.0) * min_gap));
+        // A step as long as the range leaves one tick or none (±4.4 with a step of 5): finer
+        // steps, crowded or not, until there are two.
+        for _ in 0..12 {
+            if a.ticks.len() >= 2 || a.step <= 0.0 {
+                break;
+            }
+            a = Axis::with_step(lo, hi, nice_step(a.step / 2.5));
+        }
         for _ in 0..6 {
             let need = cw.map_or(min_gap, |cw| min_gap.max((a.max_label_chars() + 2) as f64 * cw));
             if a.ticks.is_empty() || a.step / span * len >= need * (1.0 - 1e-9) {
@@ -1836,5 +1844,15 @@ mod tests {
         let once = noise(WINDOW, 4);
         let twice = [&once[..], &once[..]].concat();
         assert!(zlib(&twice, 0).len() < zlib(&once, 0).len() + 500);
+    }
+
+    #[test]
+    fn a_short_axis_still_gets_two_ticks() {
+        // ±4.4 on a short panel: the spacing alone asks for a step of 5, which leaves only 0.
+        for len in [20.0, 40.0, 80.0] {
+            let a = Axis::fitted((-4.4, 4.4), len, 12.0, None);
+            assert!(a.ticks.len() >= 2, "{len}: {:?}", a.ticks);
+            assert!(a.ticks.iter().all(|t| (-4.4..=4.4).contains(t)));
+        }
     }
 }
