@@ -5,10 +5,14 @@
 //! `M_ez = M_dz − M_wz`, with `M_dz` from the one-axis joint-torque sensors and `M_wz` from the
 //! IDP — the underwater RNEA ([`crate::arm::Arm::inverse_dynamics`]) of the *controller's*
 //! arm model (which may differ from the plant's), at the measured `q`, `q̇`, the joint
-//! accelerations, and the base motion the gyros give. The accelerations are the encoder rates'
-//! derivative through a first-order filter, and `M_dz` passes the same filter, so that the
-//! inertial moments of both sides line up and `M_ez` comes out as the filtered external
-//! moments (no noise amplification, a lag of `1/(2π filter_hz)`). The accelerations the joint
+//! accelerations, and the base motion the gyros and accelerometers give. The accelerations are
+//! the tachometer rates' derivative through a low-pass of `filter_stages` first-order stages
+//! ([`LowPass`]), and `M_dz` (and the vehicle's rates and specific force) pass the same filter,
+//! so that the inertial moments of both sides line up and `M_ez` comes out as the filtered
+//! external moments, with a lag of `filter_stages/(2π filter_hz)`. A single stage passes the
+//! difference quotient's noise flat up to the sampling limit; two stages roll it off, which
+//! (at 30 Hz, with the same lag as one stage at 15 Hz) cuts the median identification error of
+//! the bottle cleaning from about 0.8 to 0.35 N·m. The accelerations the joint
 //! controllers commanded can stand in (`acceleration = "commanded"`), but where the arm does
 //! not follow them — at every contact transient — their difference enters `M_ez`, and through
 //! the compensation of `M_ez` in the drives it feeds itself.
@@ -17,8 +21,11 @@
 //! `M_ez` is not zero but the model's error, mostly the weight and buoyancy on the shoulder.
 //! During the trajectory's approach, until the identified force first exceeds
 //! `tare_until_n` (the touch), the ICU zeroes it, as one zeroes a force sensor before
-//! contact: an offset follows `M_ez` with the time constant `tare_s` and is subtracted from
-//! then on.
+//! contact: an offset, starting at the first reading, follows `M_ez` with the time constant
+//! `tare_s` and is subtracted from then on. The touch is judged on the identified force
+//! low-passed with `touch_filter_s` (noise alone must not end the zeroing), and at the touch
+//! the offset goes back to its value of the last instant that force was below `tare_quiet_n`
+//! (a slow touch loads the offset before the force reaches `tare_until_n`).
 //!
 //! Eq. (3)–(12): a point contact at the tool tip loads joint `i` with `M_ez,i = J_v,iᵀ F_imp`
 //! (the `J_v` columns of the tool-point Jacobian; `F_imp = −F_e` the force the tool exerts).
@@ -36,7 +43,8 @@ use crate::arm::{Arm, JointVector};
 use crate::config::{non_negative, positive};
 use crate::error::Result;
 use crate::integrate::{lag_gain, lag_gain_hz};
-use nalgebra::{Matrix3, Vector3};
+use crate::spatial_algebra::Motion;
+use nalgebra::{Matrix3, SVector, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
 /// How the tool force is computed from the external joint moments.
@@ -72,13 +80,30 @@ pub struct IcuConfig {
     pub singular_angle_rad: f64,
     /// The joint accelerations of the IDP.
     pub acceleration: Acceleration,
-    /// Cut-off of the filter on the rates' derivative and on `M_dz` (`acceleration =
-    /// "measured"`), Hz.
+    /// Cut-off of each stage of the filter on the rates' derivative and on `M_dz`
+    /// (`acceleration = "measured"`), Hz.
     pub filter_hz: f64,
+    /// Number of identical first-order stages of that filter (1 or 2). One stage passes the
+    /// derivative's noise flat up to the sampling limit (`|H(ω)| → 2π filter_hz` for large
+    /// `ω`); two roll it off as `1/ω`.
+    pub filter_stages: usize,
+    /// Whether the IDP of eq. (2) takes the vehicle's acceleration: the angular one as the
+    /// gyro rates' derivative and the linear one from the accelerometers (specific force plus
+    /// gravity), both through the same filter as the joint accelerations. Without it the IDP
+    /// sees the base at constant velocity and the base's inertial moments, which the torque
+    /// sensors do read, stay in `M_ez`.
+    pub base_acceleration: bool,
     /// Time constant of the zeroing of `M_ez` in free space, s (0: no zeroing).
     pub tare_s: f64,
     /// The zeroing stops for good once the identified force exceeds this, N.
     pub tare_until_n: f64,
+    /// Time constant of the low-pass on the identified force that the touch is judged on, s
+    /// (0: the force itself), so that the noise of a single reading does not end the zeroing.
+    pub touch_filter_s: f64,
+    /// At the touch the offset goes back to its value of the last instant the (low-passed)
+    /// force was below this, N: what a slow touch (a sampler sinking into soil) loaded the
+    /// offset with before the force reached `tare_until_n` does not stay in it.
+    pub tare_quiet_n: f64,
 }
 
 impl Default for IcuConfig {
@@ -87,9 +112,13 @@ impl Default for IcuConfig {
             method: ForceMethod::LeastSquares,
             singular_angle_rad: 0.05,
             acceleration: Acceleration::Measured,
-            filter_hz: 20.0,
+            filter_hz: 30.0,
+            filter_stages: 2,
+            base_acceleration: true,
             tare_s: 1.0,
             tare_until_n: 5.0,
+            touch_filter_s: 0.05,
+            tare_quiet_n: 1.0,
         }
     }
 }
@@ -103,7 +132,22 @@ impl IcuConfig {
         non_negative("sim.icu.singular_angle_rad", self.singular_angle_rad)?;
         non_negative("sim.icu.tare_s", self.tare_s)?;
         non_negative("sim.icu.tare_until_n", self.tare_until_n)?;
-        positive("sim.icu.filter_hz", self.filter_hz)
+        non_negative("sim.icu.touch_filter_s", self.touch_filter_s)?;
+        non_negative("sim.icu.tare_quiet_n", self.tare_quiet_n)?;
+        if self.tare_quiet_n > self.tare_until_n {
+            return Err(crate::error::Error::input(
+                "sim.icu.tare_quiet_n",
+                "must not exceed sim.icu.tare_until_n",
+            ));
+        }
+        positive("sim.icu.filter_hz", self.filter_hz)?;
+        if !(1..=2).contains(&self.filter_stages) {
+            return Err(crate::error::Error::input(
+                "sim.icu.filter_stages",
+                "must be 1 or 2",
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -116,16 +160,60 @@ pub struct Identification {
     pub f_imp_base: Vector3<f64>,
 }
 
+/// What the ICU filters: joint rates, gyro rates, `M_dz`, specific force.
+type Signals = SVector<f64, 18>;
+
+/// A cascade of identical first-order low-passes `y_j += k (y_{j−1} − y_j)`, started at the
+/// first input, that also gives its output's backward difference: for a rate input that is
+/// the filtered derivative, the same filter applied to the rate's own difference quotient
+/// (the filter is linear and time-invariant), so a rate's filtered derivative and a torque's
+/// filtered value share one transfer function.
+#[derive(Debug, Clone)]
+pub struct LowPass<const N: usize> {
+    k: f64,
+    stages: Vec<SVector<f64, N>>,
+    n_stages: usize,
+}
+
+impl<const N: usize> LowPass<N> {
+    /// `n_stages` stages of cut-off `hz` at the period `dt`.
+    pub fn new(hz: f64, n_stages: usize, dt: f64) -> Self {
+        LowPass {
+            k: lag_gain_hz(dt, hz),
+            stages: Vec::new(),
+            n_stages: n_stages.max(1),
+        }
+    }
+
+    /// Filters `x`: the output and its change since the previous output.
+    pub fn update(&mut self, x: &SVector<f64, N>) -> (SVector<f64, N>, SVector<f64, N>) {
+        if self.stages.is_empty() {
+            self.stages = vec![*x; self.n_stages];
+        }
+        let before = self.stages[self.n_stages - 1];
+        let mut input = *x;
+        for y in &mut self.stages {
+            *y += (input - *y) * self.k;
+            input = *y;
+        }
+        (input, input - before)
+    }
+}
+
 /// The ICU with its filters.
 #[derive(Debug, Clone)]
 pub struct Icu {
     cfg: IcuConfig,
-    /// Filtered rates and filtered `M_dz` (none before the first measurement).
-    filtered: Option<(JointVector, JointVector)>,
+    /// The filter of the measured signals (built at the first measurement).
+    filter: Option<LowPass<18>>,
     /// The free-space offset of `M_ez`, N·m.
     offset: JointVector,
+    /// The offset of the last instant the force was quiet (below `tare_quiet_n`), N·m.
+    quiet_offset: JointVector,
     /// Whether the tool has touched (the zeroing is over).
     touched: bool,
+    /// The low-passed identified force the touch is judged on, N.
+    touch_force: Option<Vector3<f64>>,
 }
 
 impl Icu {
@@ -133,9 +221,11 @@ impl Icu {
     pub fn new(cfg: &IcuConfig) -> Self {
         Icu {
             cfg: *cfg,
-            filtered: None,
+            filter: None,
             offset: JointVector::zeros(),
+            quiet_offset: JointVector::zeros(),
             touched: false,
+            touch_force: None,
         }
     }
 
@@ -152,24 +242,54 @@ impl Icu {
         approach: bool,
         dt: f64,
     ) -> Identification {
-        let (qdd, m_dz) = match self.cfg.acceleration {
+        let cfg = self.cfg;
+        let first = self.filter.is_none();
+        let mut x = Signals::zeros();
+        x.fixed_rows_mut::<6>(0).copy_from(&m.qd);
+        x.fixed_rows_mut::<3>(6).copy_from(&m.omega);
+        x.fixed_rows_mut::<6>(9).copy_from(&m.m_dz);
+        x.fixed_rows_mut::<3>(15).copy_from(&m.specific_force);
+        let (y, dy) = self
+            .filter
+            .get_or_insert_with(|| LowPass::new(cfg.filter_hz, cfg.filter_stages, dt))
+            .update(&x);
+        let (qdd, m_dz) = match cfg.acceleration {
             Acceleration::Commanded => (*commanded, m.m_dz),
-            Acceleration::Measured => {
-                let k = lag_gain_hz(dt, self.cfg.filter_hz);
-                let (rates, torques) = self.filtered.get_or_insert((m.qd, m.m_dz));
-                let step = (m.qd - *rates) * k;
-                *rates += step;
-                *torques += (m.m_dz - *torques) * k;
-                (step / dt, *torques)
-            }
+            Acceleration::Measured => (dy.fixed_rows::<6>(0) / dt, y.fixed_rows::<6>(9).into_owned()),
         };
-        let m_wz = arm.inverse_dynamics(&m.q, &m.qd, &qdd, base, None).tau_rigid;
-        let raw = m_dz - m_wz;
-        let f_imp_base = tool_force(arm, &m.q, &(raw - self.offset), &self.cfg);
-        self.touched |= !approach || f_imp_base.norm() > self.cfg.tare_until_n;
-        if !self.touched && self.cfg.tare_s > 0.0 {
-            self.offset += (raw - self.offset) * lag_gain(dt, self.cfg.tare_s);
+        let mut base = *base;
+        if cfg.base_acceleration && cfg.acceleration == Acceleration::Measured {
+            // `ν̇` in `C` axes: `v̇ = f + g − ω × v` (`ω × v` left out: the ICU has no `v`),
+            // `ω̇` the gyros' filtered derivative.
+            let g_body = arm.mount.rot.transpose() * base.gravity;
+            let lin = y.fixed_rows::<3>(15) + g_body;
+            let ang = dy.fixed_rows::<3>(6) / dt;
+            let nu_dot = Vector6::new(lin.x, lin.y, lin.z, ang.x, ang.y, ang.z);
+            base.acceleration = arm.mount.motion(&Motion::from_vector6(&nu_dot));
         }
+        let m_wz = arm.inverse_dynamics(&m.q, &m.qd, &qdd, &base, None).tau_rigid;
+        let raw = m_dz - m_wz;
+        if first && approach && cfg.tare_s > 0.0 {
+            // The zeroing starts from the first reading (the arm at rest at the station).
+            self.offset = raw;
+            self.quiet_offset = raw;
+        }
+        let f_imp_base = tool_force(arm, &m.q, &(raw - self.offset), &self.cfg);
+        let touch_force = self.touch_force.get_or_insert(f_imp_base);
+        *touch_force += (f_imp_base - *touch_force) * lag_gain(dt, cfg.touch_filter_s);
+        let quiet = touch_force.norm() < cfg.tare_quiet_n;
+        let touched = self.touched || !approach || touch_force.norm() > cfg.tare_until_n;
+        if !self.touched && cfg.tare_s > 0.0 {
+            if touched {
+                self.offset = self.quiet_offset;
+            } else {
+                self.offset += (raw - self.offset) * lag_gain(dt, cfg.tare_s);
+                if quiet {
+                    self.quiet_offset = self.offset;
+                }
+            }
+        }
+        self.touched = touched;
         let m_ez = raw - self.offset;
         Identification {
             m_ez,
@@ -219,6 +339,8 @@ mod tests {
     use crate::model::UvmsModel;
     use crate::multibody::Multibody;
     use crate::spatial_algebra::Force;
+    use crate::synth::random::gaussian;
+    use rand::rngs::ChaCha8Rng;
 
     fn arm() -> Arm {
         Multibody::new(&UvmsModel::default()).unwrap().arm
@@ -302,7 +424,8 @@ mod tests {
             m_dz,
             attitude: nalgebra::UnitQuaternion::identity(),
             omega: Vector3::zeros(),
-            specific_force: Vector3::zeros(),
+            // At rest: the accelerometers read `−g`.
+            specific_force: -(arm.mount.rot.transpose() * base.gravity),
             position: Vector3::zeros(),
             position_time: 0.0,
         };
@@ -332,6 +455,63 @@ mod tests {
             if tare_s > 0.0 {
                 assert!((loaded.f_imp_base - f).norm() < 0.1, "{}", loaded.f_imp_base);
             }
+        }
+    }
+
+    /// The filtered derivative of a noisy rate tracks the acceleration of a sinusoid, delayed
+    /// by the filter's group delay `n/(2π f_c)`, within the lag's amplitude error plus four
+    /// standard deviations of the noise, the latter computed from the filter's own response: a
+    /// unit rate step makes the output change by the filter's impulse response `h_n`, and white
+    /// rate noise of deviation `σ` reaches the derivative as `σ_out² = (σ/dt)² Σ (h_n − h_{n−1})²`
+    /// (one stage at 20 Hz: 0.12 rad/s² for 1 mrad/s; two: 0.02). A second stage cuts that
+    /// noise by more than three; a torque `I q̈` through the same filter matches `I` times the
+    /// filtered derivative (the alignment of eq. 2).
+    #[test]
+    fn low_pass_recovers_a_sinusoids_acceleration_from_a_noisy_rate() {
+        let (dt, fc, sigma) = (1e-3, 20.0, 1e-3);
+        let noise_std = |stages: usize| {
+            let mut f = LowPass::<1>::new(fc, stages, dt);
+            f.update(&SVector::<f64, 1>::zeros());
+            let step = SVector::<f64, 1>::new(1.0);
+            let mut sum = 0.0;
+            let mut prev = 0.0;
+            for _ in 0..20_000 {
+                let h = f.update(&step).1[0];
+                sum += (h - prev).powi(2);
+                prev = h;
+            }
+            sigma / dt * sum.sqrt()
+        };
+        let (one, two) = (noise_std(1), noise_std(2));
+        assert!(two < one / 3.0, "one stage {one}, two {two}");
+        let (amp, w, inertia) = (0.2, 2.0 * std::f64::consts::PI * 1.0, 3.0);
+        for stages in [1, 2] {
+            let delay = stages as f64 / (2.0 * std::f64::consts::PI * fc);
+            let bound = amp * w * w * (w * delay).powi(2) + 4.0 * noise_std(stages);
+            let mut f = LowPass::<2>::new(fc, stages, dt);
+            let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(3);
+            let mut worst: f64 = 0.0;
+            for k in 0..4000 {
+                let t = k as f64 * dt;
+                let qdd = -amp * w * w * (w * t).sin();
+                let rate = amp * w * (w * t).cos() + sigma * gaussian(&mut rng);
+                let (y, dy) = f.update(&SVector::<f64, 2>::new(rate, inertia * qdd));
+                if t > 0.5 {
+                    let est = dy[0] / dt;
+                    let want = -amp * w * w * (w * (t - delay)).sin();
+                    worst = worst.max((est - want).abs());
+                    // Alignment: the torque's filtered value is `I` times the filtered
+                    // derivative of the (noise-free part of the) rate, within the noise.
+                    assert!(
+                        (y[1] - inertia * est).abs()
+                            < inertia * (4.0 * noise_std(stages) + amp * w.powi(3) * dt),
+                        "{stages} stages at {t}: {} vs {}",
+                        y[1],
+                        inertia * est
+                    );
+                }
+            }
+            assert!(worst < bound, "{stages} stages: {worst} ≥ {bound}");
         }
     }
 }
