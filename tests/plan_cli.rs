@@ -131,6 +131,18 @@ fn failed_runs_exit_1_and_bad_input_exits_2() {
     let scan = scan.to_str().unwrap();
     let model = data("models/bottle.ply");
     let model = model.to_str().unwrap();
+    let with_config = |cfg: &Path| {
+        run(&[
+            "plan",
+            scan,
+            "--reference",
+            model,
+            "--config",
+            cfg.to_str().unwrap(),
+            "--out",
+            out,
+        ])
+    };
     // A raster that misses the object.
     let cfg = dir.path().join("far.toml");
     std::fs::write(
@@ -138,30 +150,12 @@ fn failed_runs_exit_1_and_bad_input_exits_2() {
         "[plan]\npattern = \"raster\"\n[plan.raster]\noffset_m = [2.0, 0.0]\n",
     )
     .unwrap();
-    let o = run(&[
-        "plan",
-        scan,
-        "--reference",
-        model,
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        out,
-    ]);
+    let o = with_config(&cfg);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("misses the object"), "{}", stderr(&o));
     // A band wider than the surface.
     std::fs::write(&cfg, "[plan.ring]\narc_deg = 250.0\n").unwrap();
-    let o = run(&[
-        "plan",
-        scan,
-        "--reference",
-        model,
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        out,
-    ]);
+    let o = with_config(&cfg);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("band wider than the surface"),
@@ -205,16 +199,7 @@ fn failed_runs_exit_1_and_bad_input_exits_2() {
         "[plan]\npattern = \"polyline\"\n[plan.polyline]\nfile = \"path.csv\"\n",
     )
     .unwrap();
-    let o = run(&[
-        "plan",
-        scan,
-        "--reference",
-        model,
-        "--config",
-        sub_cfg.to_str().unwrap(),
-        "--out",
-        out,
-    ]);
+    let o = with_config(&sub_cfg);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("path.csv") && stderr(&o).contains("line 3 column 2"),
@@ -242,16 +227,7 @@ fn failed_runs_exit_1_and_bad_input_exits_2() {
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     std::fs::write(&cfg, "[plan.ring]\narc_degrees = 90.0\n").unwrap();
-    let o = run(&[
-        "plan",
-        scan,
-        "--reference",
-        model,
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        out,
-    ]);
+    let o = with_config(&cfg);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("arc_degrees"), "{}", stderr(&o));
     // Nothing was written by the failed runs.

@@ -28,9 +28,10 @@
 
 use super::project::{
     Facing, Guide, Line, PathPoint, ProjectionConfig, Projector, SmoothSurface, bounded_count, bridge_holes,
-    non_negative, positive, project_all,
+    project_all,
 };
 use super::{ObjectAxes, ObjectInput, PlanInput, perpendicular};
+use crate::config::{non_negative, positive};
 use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;

@@ -23,6 +23,7 @@
 //! path point is finally turned to face the guide ray's origin (the side the tool comes from).
 //! Frame: the scan frame `S`; metres.
 
+use crate::config::{non_negative, positive};
 use crate::error::{Error, Result};
 use crate::mesh::TriangleMesh;
 use crate::spatial::KdIndex;
@@ -109,8 +110,6 @@ pub(crate) fn bounded_count(what: &str, numerator: f64, denominator: f64) -> Res
         ))
     }
 }
-
-pub(crate) use crate::config::{non_negative, positive};
 
 /// How the triangle normals of a surface are oriented before smoothing.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -12,7 +12,8 @@
 //! seed's advice for critical operations); after the last point it retreats along `-k`. No force
 //! is demanded during the approach and the retreat.
 
-use super::project::{MAX_COUNT, PathPoint, bounded_count, non_negative, positive};
+use super::project::{MAX_COUNT, PathPoint, bounded_count};
+use crate::config::{non_negative, positive};
 use crate::error::{Error, Result};
 use crate::trajectory::{Phase, Sample};
 use nalgebra::UnitQuaternion;

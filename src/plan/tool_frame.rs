@@ -48,7 +48,7 @@ impl ToolConfig {
                 "must be between -90 and 90",
             ));
         }
-        super::project::positive("tool.max_rate_deg_s", self.max_rate_deg_s)
+        crate::config::positive("tool.max_rate_deg_s", self.max_rate_deg_s)
     }
 }
 

@@ -274,27 +274,28 @@ impl Icu {
             self.offset = raw;
             self.quiet_offset = raw;
         }
-        let f_imp_base = tool_force(arm, &m.q, &(raw - self.offset), &self.cfg);
-        let touch_force = self.touch_force.get_or_insert(f_imp_base);
-        *touch_force += (f_imp_base - *touch_force) * lag_gain(dt, cfg.touch_filter_s);
-        let quiet = touch_force.norm() < cfg.tare_quiet_n;
-        let touched = self.touched || !approach || touch_force.norm() > cfg.tare_until_n;
-        if !self.touched && cfg.tare_s > 0.0 {
-            if touched {
-                self.offset = self.quiet_offset;
-            } else {
-                self.offset += (raw - self.offset) * lag_gain(dt, cfg.tare_s);
-                if quiet {
-                    self.quiet_offset = self.offset;
+        let mut m_ez = raw - self.offset;
+        let mut f_imp_base = tool_force(arm, &m.q, &m_ez, &cfg);
+        // After the touch the offset stays as it is.
+        if !self.touched {
+            let touch_force = self.touch_force.get_or_insert(f_imp_base);
+            *touch_force += (f_imp_base - *touch_force) * lag_gain(dt, cfg.touch_filter_s);
+            let quiet = touch_force.norm() < cfg.tare_quiet_n;
+            self.touched = !approach || touch_force.norm() > cfg.tare_until_n;
+            if cfg.tare_s > 0.0 {
+                if self.touched {
+                    self.offset = self.quiet_offset;
+                } else {
+                    self.offset += (raw - self.offset) * lag_gain(dt, cfg.tare_s);
+                    if quiet {
+                        self.quiet_offset = self.offset;
+                    }
                 }
+                m_ez = raw - self.offset;
+                f_imp_base = tool_force(arm, &m.q, &m_ez, &cfg);
             }
         }
-        self.touched = touched;
-        let m_ez = raw - self.offset;
-        Identification {
-            m_ez,
-            f_imp_base: tool_force(arm, &m.q, &m_ez, &self.cfg),
-        }
+        Identification { m_ez, f_imp_base }
     }
 }
 
@@ -485,9 +486,9 @@ mod tests {
         let (one, two) = (noise_std(1), noise_std(2));
         assert!(two < one / 3.0, "one stage {one}, two {two}");
         let (amp, w, inertia) = (0.2, 2.0 * std::f64::consts::PI * 1.0, 3.0);
-        for stages in [1, 2] {
+        for (stages, noise) in [(1, one), (2, two)] {
             let delay = stages as f64 / (2.0 * std::f64::consts::PI * fc);
-            let bound = amp * w * w * (w * delay).powi(2) + 4.0 * noise_std(stages);
+            let bound = amp * w * w * (w * delay).powi(2) + 4.0 * noise;
             let mut f = LowPass::<2>::new(fc, stages, dt);
             let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(3);
             let mut worst: f64 = 0.0;
@@ -503,8 +504,7 @@ mod tests {
                     // Alignment: the torque's filtered value is `I` times the filtered
                     // derivative of the (noise-free part of the) rate, within the noise.
                     assert!(
-                        (y[1] - inertia * est).abs()
-                            < inertia * (4.0 * noise_std(stages) + amp * w.powi(3) * dt),
+                        (y[1] - inertia * est).abs() < inertia * (4.0 * noise + amp * w.powi(3) * dt),
                         "{stages} stages at {t}: {} vs {}",
                         y[1],
                         inertia * est

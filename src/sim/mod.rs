@@ -385,7 +385,9 @@ pub fn simulate(
     let zero = JointVector::zeros();
     let static_id = arm.inverse_dynamics(&hover.q_start, &zero, &zero, &at_rest, None);
     let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
-    let tau_v0 = vc.wrench(&held_station(&hover, g), &nav, &ctrl.vehicle, g, &open0, 0.0);
+    // At rest the accelerometers read the specific force `−g` (`C` axes).
+    let f_rest = h.rotation.inverse() * Vector3::new(0.0, 0.0, -g);
+    let tau_v0 = vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0);
     plant.thrusters.hold(&allocator.allocate(&tau_v0).thrusts)?;
     let first_eval = plant.system.accelerations(
         &plant.state,
@@ -396,9 +398,9 @@ pub fn simulate(
         },
     )?;
     let mut truth_prev = truth_of(&plant.state, &first_eval, g);
-    // NS levelled the accelerometers while the station was held (at rest: `a = 0`).
+    // NS levelled the accelerometers while the station was held.
     let at_rest = Truth {
-        specific_force: h.rotation.inverse() * Vector3::new(0.0, 0.0, -g),
+        specific_force: f_rest,
         ..truth_prev
     };
     let levelling = (cfg.navigation.levelling_s * cfg.control_rate_hz)
@@ -593,8 +595,9 @@ pub fn simulate(
     })
 }
 
-/// What the sensors report of the station held before the run (no vision fix yet).
-fn held_station(hover: &Hover, g: f64) -> sensors::Measurements {
+/// What the sensors report of the station held before the run (no vision fix yet), with the
+/// accelerometers reading `specific_force`.
+fn held_station(hover: &Hover, specific_force: Vector3<f64>) -> sensors::Measurements {
     let h = &hover.t_world_body;
     sensors::Measurements {
         q: hover.q_start,
@@ -602,7 +605,7 @@ fn held_station(hover: &Hover, g: f64) -> sensors::Measurements {
         m_dz: JointVector::zeros(),
         attitude: h.rotation,
         omega: Vector3::zeros(),
-        specific_force: h.rotation.inverse() * Vector3::new(0.0, 0.0, -g),
+        specific_force,
         position: h.translation.vector,
         position_time: f64::NEG_INFINITY,
     }

@@ -407,9 +407,8 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
     };
     let moments = joint_panels(
         rows,
-        "External joint moments",
-        "N m",
-        [" true", " identified"],
+        ("External joint moments", "N m"),
+        ["M", " true", " identified"],
         |r| (&r.m_ez_true, &r.m_ez_id),
     );
     let comps = ["x", "y", "z"];
@@ -457,7 +456,9 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
                 .collect(),
         },
     ];
-    let joints = joint_panels(rows, "Joint coordinates", "rad", ["", "*"], |r| (&r.q, &r.q_ref));
+    let joints = joint_panels(rows, ("Joint coordinates", "rad"), ["q", "", "*"], |r| {
+        (&r.q, &r.q_ref)
+    });
     let fig = |title: &str, panels| Figure {
         title: format!("{title}{tag}"),
         x_label: "t, s".into(),
@@ -471,15 +472,15 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
     ]
 }
 
-/// Two panels (joints 1-3, 4-6) of a pair of joint vectors per row, e.g. true and identified.
+/// Two panels (joints 1-3, 4-6) of a pair of joint vectors per row, e.g. true and identified;
+/// the series of joint `j` are named `{name}{j}{first}` and `{name}{j}{second}`.
 fn joint_panels(
     rows: &[Row],
-    title: &str,
-    unit: &str,
-    suffixes: [&str; 2],
+    (title, unit): (&str, &str),
+    [name, first, second]: [&str; 3],
     pair: fn(&Row) -> (&JointVector, &JointVector),
 ) -> Vec<Panel> {
-    let name = if unit == "rad" { "q" } else { "M" };
+    let suffixes = [first, second];
     (0..2)
         .map(|g| Panel {
             title: format!("{title}, joints {}-{}", 3 * g + 1, 3 * g + 3),
