@@ -23,7 +23,7 @@ use crate::cloud::pca::{PrincipalAxes, principal_axes};
 use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
-use crate::register::{InitMode, ReferenceModel, RegisterConfig, Registration, register, visible_source};
+use crate::register::{InitMode, ReferenceModel, RegisterConfig, Registration, register};
 use crate::segment::cluster::{Cluster, ClusterConfig, euclidean_clusters};
 use crate::segment::seabed::{SeabedConfig, SeabedFit, find_seabed, object_side};
 use crate::segment::select::{SelectConfig, Selection, select_cluster};
@@ -402,10 +402,7 @@ pub fn check(
     let reference_surface = timings.time("reference_surface", || match &model.mesh {
         Some(m) => Ok(m.transformed(&pose)),
         None => {
-            let visible: Vec<Point3<f64>> = visible_source(model, &pose, &cfg.register.hidden_points)
-                .iter()
-                .map(|p| pose * p)
-                .collect();
+            let visible: Vec<Point3<f64>> = registration.visible.iter().map(|p| pose * p).collect();
             triangulate_view(&visible, &[], &camera, &cfg.surface)
         }
     })?;

@@ -82,7 +82,7 @@ pub fn check_summary(r: &CheckResult) -> serde_json::Value {
         "coverage": r.accuracy.coverage,
         "iterations": reg.iterations,
         "converged": reg.converged,
-        "visible_reference_points": reg.visible_points,
+        "visible_reference_points": reg.visible.len(),
         "t_scan_reference_initial": pose_to_rows(&reg.initial),
         "object_points": r.object.len(),
         "object_centroid": r.object_shape.centroid.coords.as_slice(),

@@ -9,8 +9,9 @@
 //! (`h` the cell edge, `m` the point's distance to the faces of its own cell): no point outside
 //! the block can be closer. Otherwise the search goes on ring by ring (Chebyshev distance
 //! r = 2, 3, with the test `d_k ≤ r·h + m`), and a point that needs more than three rings
-//! (isolated points, outliers) is answered by the kd-tree ([`KdIndex`]). The cell edge is 1.25 ×
-//! the median k-th-neighbour distance of a sample of points, so most points stop at the block.
+//! (isolated points, outliers) is answered by a linear scan, or by a kd-tree ([`KdIndex`]) when
+//! there are many such points. The cell edge is 1.25 × the median k-th-neighbour distance of a
+//! sample of points, so most points stop at the block.
 //! Candidates are gathered unsorted and cut to the k best by selection, pre-filtered by the
 //! previous point's k-th distance.
 //!
@@ -21,12 +22,14 @@ use crate::error::{Error, Result};
 use crate::spatial::{KdIndex, Neighbour};
 use nalgebra::Point3;
 use rayon::prelude::*;
-use std::sync::OnceLock;
 
-/// Rings scanned before a query falls back to the kd-tree.
+/// Rings scanned before a query is left to the linear scan or the kd-tree.
 const MAX_RINGS: i64 = 3;
 /// Points sampled to choose the cell edge.
 const SAMPLE: usize = 256;
+/// At most this many points the ring search gives up on are answered by a linear scan each
+/// (cheaper than building a kd-tree over the cloud for a few isolated points).
+const BRUTE_FORCE_QUERIES: usize = 64;
 /// Cell edge over the sample's median k-th neighbour distance (measured: 1.0 to 1.5 are within
 /// 10 % of each other on the milk scene, 1.25 the fastest).
 const CELL_FACTOR: f64 = 1.25;
@@ -291,10 +294,9 @@ impl Best {
         self.worst
     }
 
-    /// Writes the k best, nearest first, into `out`.
+    /// Writes the k best, in no particular order, into `out`.
     fn finish(&mut self, out: &mut Vec<Neighbour>) {
         self.settle();
-        self.items.sort_unstable();
         out.clear();
         out.extend(self.items.iter().map(|&(d2, j)| Neighbour {
             index: j as usize,
@@ -303,9 +305,9 @@ impl Best {
     }
 }
 
-/// Calls `f(i, neighbours)` for every point `i` with its `k` nearest other points (nearest
-/// first; fewer when the cloud has fewer than `k + 1` points) and collects the results in point
-/// order. Runs in parallel (rayon).
+/// Calls `f(i, neighbours)` for every point `i` with its `k` nearest other points (in no
+/// particular order; fewer when the cloud has fewer than `k + 1` points) and collects the results
+/// in point order. Runs in parallel (rayon).
 ///
 /// # Errors
 /// [`Error::Input`] if `k` is 0, a point is not finite, or there are more than `u32::MAX` points.
@@ -333,54 +335,26 @@ pub fn map_knn<T: Send>(
         ));
     }
     let k = k.min(points.len().saturating_sub(1));
-    let tree: OnceLock<Result<KdIndex>> = OnceLock::new();
-    let tree_knn = |q: &Point3<f64>, i: usize| -> Result<Vec<Neighbour>> {
-        let t = tree
-            .get_or_init(|| KdIndex::new(points))
-            .as_ref()
-            .map_err(|e| Error::failed("kNN", e))?;
-        // k + 1 so that the point itself (or one exact duplicate) can be dropped.
-        let mut v = t.knn(q, k + 1);
-        match v.iter().position(|n| n.index == i) {
-            Some(at) => {
-                v.remove(at);
-            }
-            None => {
-                v.pop();
-            }
-        }
-        Ok(v)
-    };
     let Some((lo, hi)) = crate::cloud::bbox(points) else {
         return Ok(Vec::new());
     };
     if k == 0 {
         return Ok((0..points.len()).map(|i| f(i, &[])).collect());
     }
-    // Cell edge: from the median k-th neighbour distance over a spread-out sample (kd-tree
-    // queries; the kd-tree also answers the points the grid gives up on).
-    let step = (points.len() / SAMPLE).max(1);
-    let mut kth: Vec<f64> = (0..points.len())
-        .step_by(step)
-        .map(|i| tree_knn(&points[i], i).map(|v| v.last().map_or(0.0, |n| n.distance)))
-        .collect::<Result<_>>()?;
-    kth.sort_by(f64::total_cmp);
-    let diag = (hi - lo).norm();
-    let h = (CELL_FACTOR * kth[kth.len() / 2])
-        .max(diag * 1e-9)
-        .max(f64::MIN_POSITIVE);
+    let h = cell_edge(points, k, (hi - lo).norm())?;
     let Some(grid) = Grid::new(points, &lo, &hi, h) else {
-        return points
+        let tree = KdIndex::new(points).map_err(|e| Error::failed("kNN", e))?;
+        return Ok(points
             .par_iter()
             .enumerate()
-            .map(|(i, p)| Ok(f(i, &tree_knn(p, i)?)))
-            .collect();
+            .map(|(i, p)| f(i, &tree_knn(&tree, p, i, k)))
+            .collect());
     };
     // Cell by cell: every point of a cell scans the same 3×3×3 block, which answers it exactly
-    // when its k-th distance is within h + margin; the others take the ring search, then the
-    // kd-tree.
+    // when its k-th distance is within h + margin; the others take the ring search, and those
+    // it gives up on are answered afterwards.
     let cells = grid.cells();
-    let pairs: Vec<(u32, T)> = cells
+    let answered: Vec<(u32, Option<T>)> = cells
         .par_iter()
         .map_init(
             || (Best::new(k), Vec::with_capacity(k)),
@@ -418,25 +392,50 @@ pub fn map_knn<T: Send>(
                     }
                     // Not settled within the block: continue with rings 2, 3, ...
                     exact = exact || grid.query(q, i, best, 2);
-                    if exact {
-                        best.finish(out);
-                        res.push((i, f(i as usize, out)));
-                    } else {
-                        let p = &points[i as usize];
-                        res.push((i, f(i as usize, &tree_knn(p, i as usize)?)));
-                    }
+                    res.push((
+                        i,
+                        exact.then(|| {
+                            best.finish(out);
+                            f(i as usize, out)
+                        }),
+                    ));
                 }
-                Ok(res)
+                res
             },
         )
-        .collect::<Result<Vec<_>>>()?
-        .into_iter()
         .flatten()
         .collect();
     let mut slots: Vec<Option<T>> = (0..points.len()).map(|_| None).collect();
-    for (i, t) in pairs {
-        if let Some(slot) = slots.get_mut(i as usize) {
-            *slot = Some(t);
+    let mut far = Vec::new();
+    for (i, t) in answered {
+        match t {
+            Some(t) => slots[i as usize] = Some(t),
+            None => far.push(i as usize),
+        }
+    }
+    // The points the rings gave up on (isolated ones): a linear scan each while they are few,
+    // else a kd-tree over the whole cloud.
+    if far.len() <= BRUTE_FORCE_QUERIES {
+        let mut best = Best::new(k);
+        let mut out = Vec::with_capacity(k);
+        for i in far {
+            best.clear();
+            for (j, p) in points.iter().enumerate() {
+                if j != i {
+                    best.offer((p - points[i]).norm_squared(), j as u32);
+                }
+            }
+            best.finish(&mut out);
+            slots[i] = Some(f(i, &out));
+        }
+    } else {
+        let tree = KdIndex::new(points).map_err(|e| Error::failed("kNN", e))?;
+        let done: Vec<(usize, T)> = far
+            .into_par_iter()
+            .map(|i| (i, f(i, &tree_knn(&tree, &points[i], i, k))))
+            .collect();
+        for (i, t) in done {
+            slots[i] = Some(t);
         }
     }
     let out: Vec<T> = slots.into_iter().flatten().collect();
@@ -444,6 +443,43 @@ pub fn map_knn<T: Send>(
         return Err(Error::failed("kNN", "a point was not answered (internal error)"));
     }
     Ok(out)
+}
+
+/// The grid's cell edge: `CELL_FACTOR` × the median k-th neighbour distance over a spread-out
+/// sample of points. The distances are measured in every `s`-th point, whose (k/s)-th neighbour
+/// lies about as far as the whole cloud's k-th whatever the cloud's dimension (the same count of
+/// points within the radius): a tree `s` times smaller.
+fn cell_edge(points: &[Point3<f64>], k: usize, diag: f64) -> Result<f64> {
+    let s = (k / 4).max(1);
+    let subset: Vec<Point3<f64>> = points.iter().step_by(s).copied().collect();
+    let m = k.div_ceil(s).min(subset.len().saturating_sub(1)).max(1);
+    let tree = KdIndex::new(&subset).map_err(|e| Error::failed("kNN", e))?;
+    let step = (subset.len() / SAMPLE).max(1);
+    // m + 1: the sample point itself is in the subset.
+    let mut kth: Vec<f64> = subset
+        .iter()
+        .step_by(step)
+        .map(|p| tree.knn(p, m + 1).last().map_or(0.0, |n| n.distance))
+        .collect();
+    kth.sort_by(f64::total_cmp);
+    Ok((CELL_FACTOR * kth[kth.len() / 2])
+        .max(diag * 1e-9)
+        .max(f64::MIN_POSITIVE))
+}
+
+/// The `k` nearest other points of point `i` (at `q`) from a kd-tree over all points.
+fn tree_knn(tree: &KdIndex, q: &Point3<f64>, i: usize, k: usize) -> Vec<Neighbour> {
+    // k + 1 so that the point itself (or one exact duplicate) can be dropped.
+    let mut v = tree.knn(q, k + 1);
+    match v.iter().position(|n| n.index == i) {
+        Some(at) => {
+            v.remove(at);
+        }
+        None => {
+            v.pop();
+        }
+    }
+    v
 }
 
 #[cfg(test)]
@@ -469,6 +505,13 @@ mod tests {
 
     #[test]
     fn matches_brute_force_on_a_surface_with_outliers_and_duplicates() {
+        // Few outliers: the rings' leftovers get a linear scan each; many: a kd-tree.
+        for outliers in [15, 3 * BRUTE_FORCE_QUERIES] {
+            matches_brute_force(outliers);
+        }
+    }
+
+    fn matches_brute_force(outliers: usize) {
         let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(5);
         // A wavy sheet at the bottom of the box (so it sits in the first z cells), outliers above
         // and around it, and two exact duplicates.
@@ -478,7 +521,7 @@ mod tests {
                 Point3::new(u, v, 0.02 * (6.0 * u).sin())
             })
             .collect();
-        for _ in 0..15 {
+        for _ in 0..outliers {
             pts.push(Point3::new(
                 rng.random_range(-1.0..2.0),
                 rng.random_range(-1.0..2.0),
@@ -489,7 +532,9 @@ mod tests {
         pts.push(pts[10]);
         for k in [1, 8, 20] {
             let got = map_knn(&pts, k, |_, nb| {
-                nb.iter().map(|n| (n.distance, n.index)).collect::<Vec<_>>()
+                let mut v: Vec<(f64, usize)> = nb.iter().map(|n| (n.distance, n.index)).collect();
+                v.sort_by(|a, b| a.0.total_cmp(&b.0));
+                v
             })
             .unwrap();
             for (i, g) in got.iter().enumerate() {

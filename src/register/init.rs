@@ -14,8 +14,9 @@
 //!    unseen) and is scored by the truncated RMS distance of the scan's points to the model,
 //!    `√mean(min(d², τ²))`;
 //! 4. the `refine` best distinct candidates (laying the model's major axis differently, or turned
-//!    by more than 90° — so both end-to-end orientations of a bottle get there) get a longer ICP
-//!    on more points and are scored again; the best wins.
+//!    by more than 90° — so both end-to-end orientations of a bottle get there) that are still in
+//!    contention (`refine_within`) get a longer ICP on more points and are scored again; the best
+//!    wins.
 //!
 //! Frames: poses map reference-model coordinates into scan coordinates (`t_scan_reference`).
 
@@ -43,6 +44,9 @@ pub struct InitConfig {
     pub coarse_iterations: usize,
     /// Best candidates refined further.
     pub refine: usize,
+    /// Only candidates whose coarse score is within this factor of the best one's (plus 0.1 τ,
+    /// the floor of a score at the noise level) are refined: the others cannot win.
+    pub refine_within: f64,
     /// Scan points (evenly strided) for the refinement.
     pub sample_points: usize,
     /// Iterations of the refinement.
@@ -65,6 +69,7 @@ impl Default for InitConfig {
             coarse_model_points: 4000,
             coarse_iterations: 12,
             refine: 4,
+            refine_within: 3.0,
             sample_points: 500,
             icp_iterations: 20,
             gate_fraction: 0.2,
@@ -83,9 +88,10 @@ pub struct InitOutcome {
     pub candidates: usize,
     /// Truncated RMS scan → model distance of the winner, metres.
     pub score_m: f64,
-    /// The same for the best refined candidate that lays the model's major axis more than 30°
-    /// from the winner's (e.g. the other end-to-end orientation), metres: how clearly the winner
-    /// won. `None` if no such candidate was refined.
+    /// The same for the best candidate that lays the model's major axis more than 30° from the
+    /// winner's (e.g. the other end-to-end orientation), metres: how clearly the winner won. Its
+    /// refined score, or its coarse one when it was not in contention. `None` if every candidate
+    /// lays the axis as the winner does.
     pub runner_up_score_m: Option<f64>,
 }
 
@@ -177,10 +183,10 @@ pub fn initial_guess(
             "rotation_steps and refine must be ≥ 1 and sample_points ≥ 10",
         ));
     }
-    if !(cfg.gate_fraction > 0.0 && cfg.score_fraction > 0.0) {
+    if !(cfg.gate_fraction > 0.0 && cfg.score_fraction > 0.0 && cfg.refine_within >= 1.0) {
         return Err(Error::input(
             "init",
-            "gate_fraction and score_fraction must be > 0",
+            "gate_fraction and score_fraction must be > 0 and refine_within ≥ 1",
         ));
     }
     if !(cfg.span_tolerance.is_finite() && cfg.span_tolerance >= 0.0) {
@@ -277,8 +283,9 @@ pub fn initial_guess(
     // The best `refine` that are distinct: they lay the model's major axis differently (> 30°,
     // e.g. the two end-to-end orientations of a bottle) or differ by more than 90° overall.
     let major = model.shape.axes.column(0).into_owned();
+    let contention = cfg.refine_within * scored[0].1 + 0.1 * tau;
     let mut chosen: Vec<(Pose, f64)> = Vec::with_capacity(cfg.refine);
-    for c in &scored {
+    for c in scored.iter().take_while(|c| c.1 <= contention) {
         let distinct = chosen.iter().all(|(p, _)| {
             let axes = (p.rotation * major).angle(&(c.0.rotation * major));
             axes > 30f64.to_radians() || (p.rotation.inverse() * c.0.rotation).angle() > 90f64.to_radians()
@@ -290,8 +297,7 @@ pub fn initial_guess(
             }
         }
     }
-    let scored = chosen;
-    let mut refined: Vec<(Pose, f64)> = scored
+    let mut refined: Vec<(Pose, f64)> = chosen
         .par_iter()
         .map(|(pose, s)| {
             // The coarse ICP left the candidate within a few of its truncated RMS distances.
@@ -301,10 +307,12 @@ pub fn initial_guess(
         .collect();
     refined.sort_by(|a, b| a.1.total_cmp(&b.1));
     let (best, best_s) = refined[0];
+    let other_axis = |(p, _): &&(Pose, f64)| (best.rotation * major).angle(&(p.rotation * major)) > 30f64.to_radians();
     let runner_up = refined
         .iter()
         .skip(1)
-        .find(|(p, _)| (best.rotation * major).angle(&(p.rotation * major)) > 30f64.to_radians())
+        .find(other_axis)
+        .or_else(|| scored.iter().find(other_axis))
         .map(|r| r.1);
     Ok(InitOutcome {
         t_scan_reference: best,

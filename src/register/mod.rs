@@ -130,7 +130,9 @@ pub struct RegisterConfig {
     /// Symmetric ICP: also pair every scan point with the nearest point of the whole model
     /// (model normal), so that the model's closed geometry holds it where the scan ends.
     pub symmetric: bool,
-    /// ICP runs, each after culling the hidden points again from the last estimate.
+    /// At most this many ICP runs, each after culling the hidden points again from the last
+    /// estimate; a run is skipped when the last moved the camera (in the model's frame) too
+    /// little to move the silhouette by half the model's point spacing.
     pub visibility_rounds: usize,
     /// Distance for the reported fitness and inlier RMSE, metres; 0 uses ICP's last gate.
     pub evaluation_distance_m: f64,
@@ -164,8 +166,8 @@ pub struct Registration {
     pub initial: Pose,
     /// The global search's outcome (`--init auto`).
     pub init: Option<InitOutcome>,
-    /// Reference points visible from the camera at the final pose.
-    pub visible_points: usize,
+    /// The reference points visible from the camera at the final pose (model frame).
+    pub visible: Vec<Point3<f64>>,
     /// Fraction of the visible reference points with a scan point within the evaluation distance
     /// (Open3D's `fitness`, the reference being the source).
     pub fitness: f64,
@@ -227,7 +229,12 @@ pub fn register(
     let mut iterations = 0;
     let mut source = Vec::new();
     let mut last = None;
+    let mut culled_from: Option<Pose> = None;
     for _ in 0..cfg.visibility_rounds {
+        if culled_from.is_some_and(|p| !silhouette_moved(model, &p, &pose)) {
+            break;
+        }
+        culled_from = Some(pose);
         source = timings.time("hidden_points", || {
             visible_source(model, &pose, &cfg.hidden_points)
         });
@@ -248,6 +255,11 @@ pub fn register(
     let Some(icp) = last else {
         return Err(Error::failed("icp", "no round ran"));
     };
+    if culled_from.is_some_and(|p| silhouette_moved(model, &p, &pose)) {
+        source = timings.time("hidden_points", || {
+            visible_source(model, &pose, &cfg.hidden_points)
+        });
+    }
     let dist = if cfg.evaluation_distance_m > 0.0 {
         cfg.evaluation_distance_m
     } else {
@@ -274,7 +286,7 @@ pub fn register(
         t_scan_reference: pose,
         initial,
         init: init_outcome,
-        visible_points: source.len(),
+        visible: source,
         fitness,
         scan_fitness,
         inlier_rmse_m,
@@ -284,6 +296,16 @@ pub fn register(
         icp,
         timings,
     })
+}
+
+/// Whether moving the model from `from` to `to` moves the camera (the scan frame's origin), seen
+/// from the model, enough to shift its silhouette by half the model's point spacing: the
+/// silhouette of an object of the model's size moves by about its size times the change of the
+/// viewing direction.
+fn silhouette_moved(model: &ReferenceModel, from: &Pose, to: &Pose) -> bool {
+    let (a, b) = (from.inverse() * Point3::origin(), to.inverse() * Point3::origin());
+    let range = (a - model.shape.centroid).norm().max(1e-9);
+    model.shape.spans.max() * (b - a).norm() / range > 0.5 * model.spacing_m
 }
 
 /// The model's points visible from the camera (the scan frame's origin) when the model sits at
