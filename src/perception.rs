@@ -32,6 +32,7 @@ use crate::surface::Surface;
 use crate::triangulate::{SurfaceConfig, triangulate_view};
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::time::Instant;
 
 /// Cleaning of the raw scan.
@@ -194,7 +195,7 @@ pub fn clean(
     camera: &Point3<f64>,
 ) -> Result<(PointCloud, CleanReport)> {
     let input = scan.len();
-    let mut cloud = if cfg.min_range_m > 0.0 || cfg.max_range_m > 0.0 {
+    let mut cloud: Cow<'_, PointCloud> = if cfg.min_range_m > 0.0 || cfg.max_range_m > 0.0 {
         let gate = RangeCropConfig {
             viewpoint: camera.coords.into(),
             min_m: cfg.min_range_m,
@@ -204,18 +205,19 @@ pub fn clean(
                 f64::INFINITY
             },
         };
-        crop_range(scan, &gate)?.cloud
+        Cow::Owned(crop_range(scan, &gate)?.cloud)
     } else {
-        scan.clone()
+        Cow::Borrowed(scan)
     };
     let after_range = cloud.len();
     if cfg.voxel_m > 0.0 && !cloud.is_empty() {
-        cloud = voxel_downsample(&cloud, &VoxelConfig { voxel_m: cfg.voxel_m })?.cloud;
+        cloud = Cow::Owned(voxel_downsample(&cloud, &VoxelConfig { voxel_m: cfg.voxel_m })?.cloud);
     }
     let after_voxel = cloud.len();
     if cfg.remove_outliers && cloud.len() > cfg.outliers.neighbours {
-        cloud = remove_statistical_outliers(&cloud, &cfg.outliers)?.cloud;
+        cloud = Cow::Owned(remove_statistical_outliers(&cloud, &cfg.outliers)?.cloud);
     }
+    let cloud = cloud.into_owned();
     if cloud.is_empty() {
         return Err(Error::failed(
             "clean",

@@ -141,8 +141,9 @@ pub struct CropResult {
 /// indices of the cloud's extent do not fit in 64 bits, or if a point is not finite.
 ///
 /// # Performance
-/// One pass over the points through a hash table (voxel key → running sums), then the occupied
-/// voxels are sorted by key: O(n + m log m) for m voxels.
+/// One pass over the points through a hash table (voxel key → running sums) per thread, each
+/// thread owning a share of the voxels, then the occupied voxels are sorted by key:
+/// O(n + m log m) for m voxels.
 pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<VoxelResult> {
     let v = config.voxel_m;
     if !(v.is_finite() && v > 0.0) {
@@ -195,8 +196,9 @@ pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<Voxe
         let [x, y, z] = [0, 1, 2].map(|k| (cell(p[k]) - base[k]) as u64);
         (x << sz) | (y << sy) | z
     };
-    // One pass in point order (deterministic sums) through an open-addressing table from voxel
-    // key to accumulator.
+    // The voxels are split by key hash into one part per thread; each part takes one pass in
+    // point order (so every voxel's sums are the same whatever the split) through an
+    // open-addressing table from voxel key to accumulator.
     #[derive(Clone)]
     struct Acc {
         key: u64,
@@ -205,42 +207,55 @@ pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<Voxe
         normal: Vector3<f64>,
         count: u32,
     }
-    let table_bits = (2 * cloud.len()).next_power_of_two().trailing_zeros().max(4);
-    let mask = (1usize << table_bits) - 1;
-    let mut slots = vec![u32::MAX; mask + 1];
-    let mut accs: Vec<Acc> = Vec::new();
-    for (i, p) in cloud.points.iter().enumerate() {
-        let k = key(p);
-        let mut s = (k.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - table_bits)) as usize;
-        let a = loop {
-            match slots[s] {
-                u32::MAX => {
-                    slots[s] = accs.len() as u32;
-                    accs.push(Acc {
-                        key: k,
-                        sum: Vector3::zeros(),
-                        rgb: [0; 3],
-                        normal: Vector3::zeros(),
-                        count: 0,
-                    });
-                    break accs.len() - 1;
+    let hash = |k: u64| k.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    let keys: Vec<u64> = cloud.points.par_iter().map(key).collect();
+    let parts = rayon::current_num_threads().clamp(1, 64) as u64;
+    let mut accs: Vec<Acc> = (0..parts)
+        .into_par_iter()
+        .flat_map_iter(|part| {
+            let mine = |k: u64| (hash(k) >> 32) % parts == part;
+            let n = keys.iter().filter(|&&k| mine(k)).count();
+            let table_bits = (2 * n).next_power_of_two().trailing_zeros().max(4);
+            let mask = (1usize << table_bits) - 1;
+            let mut slots = vec![u32::MAX; mask + 1];
+            let mut accs: Vec<Acc> = Vec::new();
+            for (i, &k) in keys.iter().enumerate() {
+                if !mine(k) {
+                    continue;
                 }
-                id if accs[id as usize].key == k => break id as usize,
-                _ => s = (s + 1) & mask,
+                let mut s = (hash(k) >> (64 - table_bits)) as usize;
+                let a = loop {
+                    match slots[s] {
+                        u32::MAX => {
+                            slots[s] = accs.len() as u32;
+                            accs.push(Acc {
+                                key: k,
+                                sum: Vector3::zeros(),
+                                rgb: [0; 3],
+                                normal: Vector3::zeros(),
+                                count: 0,
+                            });
+                            break accs.len() - 1;
+                        }
+                        id if accs[id as usize].key == k => break id as usize,
+                        _ => s = (s + 1) & mask,
+                    }
+                };
+                let acc = &mut accs[a];
+                acc.sum += cloud.points[i].coords;
+                acc.count += 1;
+                if let Some(c) = &cloud.colors {
+                    for (t, &v) in acc.rgb.iter_mut().zip(&c[i]) {
+                        *t += u64::from(v);
+                    }
+                }
+                if let Some(n) = &cloud.normals {
+                    acc.normal += n[i];
+                }
             }
-        };
-        let acc = &mut accs[a];
-        acc.sum += p.coords;
-        acc.count += 1;
-        if let Some(c) = &cloud.colors {
-            for (t, &v) in acc.rgb.iter_mut().zip(&c[i]) {
-                *t += u64::from(v);
-            }
-        }
-        if let Some(n) = &cloud.normals {
-            acc.normal += n[i];
-        }
-    }
+            accs
+        })
+        .collect();
     accs.par_sort_unstable_by_key(|a| a.key);
     let out = PointCloud {
         points: accs

@@ -446,12 +446,19 @@ pub fn map_knn<T: Send>(
 }
 
 /// The grid's cell edge: `CELL_FACTOR` × the median k-th neighbour distance over a spread-out
-/// sample of points. The distances are measured in every `s`-th point, whose (k/s)-th neighbour
+/// sample of points. The distances are measured in one point of `s`, whose (k/s)-th neighbour
 /// lies about as far as the whole cloud's k-th whatever the cloud's dimension (the same count of
 /// points within the radius): a tree `s` times smaller.
 fn cell_edge(points: &[Point3<f64>], k: usize, diag: f64) -> Result<f64> {
     let s = (k / 4).max(1);
-    let subset: Vec<Point3<f64>> = points.iter().step_by(s).copied().collect();
+    // A pseudo-random subset (a cloud's storage order is often spatial: a plain stride would thin
+    // it along one direction only).
+    let subset: Vec<Point3<f64>> = points
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| ((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) % s as u64 == 0)
+        .map(|(_, p)| *p)
+        .collect();
     let m = k.div_ceil(s).min(subset.len().saturating_sub(1)).max(1);
     let tree = KdIndex::new(&subset).map_err(|e| Error::failed("kNN", e))?;
     let step = (subset.len() / SAMPLE).max(1);

@@ -307,7 +307,8 @@ pub fn initial_guess(
         .collect();
     refined.sort_by(|a, b| a.1.total_cmp(&b.1));
     let (best, best_s) = refined[0];
-    let other_axis = |(p, _): &&(Pose, f64)| (best.rotation * major).angle(&(p.rotation * major)) > 30f64.to_radians();
+    let other_axis =
+        |(p, _): &&(Pose, f64)| (best.rotation * major).angle(&(p.rotation * major)) > 30f64.to_radians();
     let runner_up = refined
         .iter()
         .skip(1)
