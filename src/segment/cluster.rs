@@ -14,7 +14,6 @@ use crate::error::{Error, Result};
 use nalgebra::Point3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
 
 /// Configuration of the clustering stage.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -112,7 +111,6 @@ pub fn euclidean_clusters(points: &[Point3<f64>], cfg: &ClusterConfig) -> Result
             _ => cells.push((c, at, at + 1)),
         }
     }
-    let lookup: HashMap<[i64; 3], usize> = cells.iter().enumerate().map(|(i, c)| (c.0, i)).collect();
     let sorted: Vec<Point3<f64>> = order.iter().map(|&(_, i)| points[i as usize]).collect();
     let touch = |a: usize, b: usize| {
         let (pa, pb) = (&sorted[cells[a].1..cells[a].2], &sorted[cells[b].1..cells[b].2]);
@@ -120,7 +118,8 @@ pub fn euclidean_clusters(points: &[Point3<f64>], cfg: &ClusterConfig) -> Result
             .any(|p| pb.iter().any(|q| (p - q).norm_squared() <= tol2))
     };
     // Union-find over cells; each pair of cells is looked at once (the offsets in one half of
-    // the 5×5×5 block).
+    // the 5×5×5 block). The cells are sorted, so the five z-neighbours of a column (x, y) are one
+    // run, found by one binary search.
     let mut parent: Vec<usize> = (0..cells.len()).collect();
     let find = |parent: &mut Vec<usize>, mut x: usize| {
         while parent[x] != x {
@@ -129,18 +128,23 @@ pub fn euclidean_clusters(points: &[Point3<f64>], cfg: &ClusterConfig) -> Result
         }
         x
     };
-    let offsets: Vec<[i64; 3]> = (-2..=2)
-        .flat_map(|x| (-2..=2).flat_map(move |y| (-2..=2).map(move |z| [x, y, z])))
-        .filter(|d| *d > [0, 0, 0])
+    let columns: Vec<([i64; 2], i64)> = (-2..=2)
+        .flat_map(|x| (-2..=2).map(move |y| [x, y]))
+        .filter(|d| *d >= [0, 0])
+        .map(|d| (d, if d == [0, 0] { 1 } else { -2 }))
         .collect();
     for (a, &(c, _, _)) in cells.iter().enumerate() {
-        for d in &offsets {
-            let Some(&b) = lookup.get(&[c[0] + d[0], c[1] + d[1], c[2] + d[2]]) else {
-                continue;
-            };
-            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-            if ra != rb && touch(a, b) {
-                parent[ra.max(rb)] = ra.min(rb);
+        for &([dx, dy], dz0) in &columns {
+            let (x, y) = (c[0] + dx, c[1] + dy);
+            let from = cells.partition_point(|e| e.0 < [x, y, c[2] + dz0]);
+            for (b, e) in cells.iter().enumerate().skip(from) {
+                if e.0 > [x, y, c[2] + 2] {
+                    break;
+                }
+                let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+                if ra != rb && touch(a, b) {
+                    parent[ra.max(rb)] = ra.min(rb);
+                }
             }
         }
     }
@@ -152,13 +156,13 @@ pub fn euclidean_clusters(points: &[Point3<f64>], cfg: &ClusterConfig) -> Result
             root_of_point[i as usize] = r;
         }
     }
-    let mut members: HashMap<usize, Vec<usize>> = HashMap::new();
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); cells.len()];
     for (i, &r) in root_of_point.iter().enumerate() {
-        members.entry(r).or_default().push(i);
+        members[r].push(i);
     }
     let (mut small_points, mut large_clusters) = (0, 0);
     let mut groups: Vec<Vec<usize>> = Vec::new();
-    for m in members.into_values() {
+    for m in members.into_iter().filter(|m| !m.is_empty()) {
         if m.len() < cfg.min_points {
             small_points += m.len();
         } else if m.len() > cfg.max_points {

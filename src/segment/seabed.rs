@@ -408,7 +408,7 @@ pub fn object_side(points: &[Point3<f64>], fit: &SeabedFit, cfg: &SeabedConfig) 
 
 /// Convex hull of 2-D points, counter-clockwise (Andrew's monotone chain).
 fn convex_hull_2d(mut p: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
-    p.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    p.par_sort_unstable_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     p.dedup();
     if p.len() < 3 {
         return p;
