@@ -361,6 +361,13 @@ pub fn icp_point_to_plane(
     Ok(out)
 }
 
+/// The nearest point of `index` to `x` if it lies within `gate`. Most of ICP's queries find a
+/// point within the gate, where kiddo's unbounded nearest-one query is about twice as fast as
+/// its bounded one (measured on the milk model); the bounded one only pays off far away.
+fn near_pair(index: &KdIndex, x: &Point3<f64>, gate: f64) -> Option<crate::spatial::Neighbour> {
+    index.nearest(x).filter(|nb| nb.distance <= gate)
+}
+
 /// Source points moved by `pose`, each with its nearest target point within `gate` (target
 /// normal), in source order.
 fn forward_pairs(src: &[Point3<f64>], pose: &Pose, target: Surfel<'_>, gate: f64) -> Vec<Pair> {
@@ -369,7 +376,7 @@ fn forward_pairs(src: &[Point3<f64>], pose: &Pose, target: Surfel<'_>, gate: f64
             let mut v = Vec::with_capacity(chunk.len());
             for p in chunk {
                 let x = pose * p;
-                if let Some(nb) = target.index.nearest_within(&x, gate) {
+                if let Some(nb) = near_pair(target.index, &x, gate) {
                     let n = target.normals[nb.index];
                     v.push(Pair {
                         x,
@@ -399,7 +406,7 @@ fn reverse_pairs(
         .map(|chunk| {
             let mut v = Vec::with_capacity(chunk.len());
             for (q, _) in chunk {
-                if let Some(nb) = model.index.nearest_within(&(inv * q), gate) {
+                if let Some(nb) = near_pair(model.index, &(inv * q), gate) {
                     let x = pose * model.points[nb.index];
                     let n = pose * model.normals[nb.index];
                     v.push(Pair {
