@@ -70,6 +70,31 @@ impl Arm {
     /// [`Error::Input`] if the arm's DH table is not of the PUMA class (see the module docs) or
     /// the pose is not finite. An unreachable pose is not an error: the result is empty.
     pub fn ik(&self, t_base_tool: &Isometry3<f64>, q_now: &JointVector) -> Result<IkSolutions> {
+        self.solve_ik(t_base_tool, q_now, 8)
+    }
+
+    /// The inverse-kinematics solution nearest to `q_now` within the joint limits (what
+    /// [`Arm::ik`]'s [`IkSolutions::nearest`] gives), checking only the candidates up to it.
+    ///
+    /// # Errors
+    /// As [`Arm::ik`].
+    pub fn ik_nearest(
+        &self,
+        t_base_tool: &Isometry3<f64>,
+        q_now: &JointVector,
+    ) -> Result<Option<JointVector>> {
+        Ok(self.solve_ik(t_base_tool, q_now, 1)?.nearest().copied())
+    }
+
+    /// The `wanted` solutions nearest to `q_now`: every analytic solution moved into the limits,
+    /// sorted by distance (stable), and checked by forward kinematics in that order until
+    /// `wanted` pass.
+    fn solve_ik(
+        &self,
+        t_base_tool: &Isometry3<f64>,
+        q_now: &JointVector,
+        wanted: usize,
+    ) -> Result<IkSolutions> {
         self.check_puma_structure()?;
         if !t_base_tool.to_homogeneous().iter().all(|v| v.is_finite()) || !q_now.iter().all(|v| v.is_finite())
         {
@@ -155,9 +180,7 @@ impl Arm {
                         -b - off(4),
                         theta6 - off(5),
                     ];
-                    if let Some(q) = self.fit_limits(&raw, q_now)
-                        && self.pose_matches(&q, t_base_tool)
-                    {
+                    if let Some(q) = self.fit_limits(&raw, q_now) {
                         out.solutions[out.len] = q;
                         out.len += 1;
                     }
@@ -166,6 +189,18 @@ impl Arm {
         }
         let dist = |q: &JointVector| (q - q_now).norm_squared();
         out.solutions[..out.len].sort_by(|a, b| dist(a).total_cmp(&dist(b)));
+        let candidates = out.len;
+        out.len = 0;
+        for i in 0..candidates {
+            if out.len == wanted {
+                break;
+            }
+            let q = out.solutions[i];
+            if self.pose_matches(&q, t_base_tool) {
+                out.solutions[out.len] = q;
+                out.len += 1;
+            }
+        }
         Ok(out)
     }
 
@@ -219,10 +254,27 @@ impl Arm {
     }
 
     /// Whether the tool pose at `q` is `target` to [`CHECK_TOL`].
+    /// Forward kinematics by the link rotation matrices; the rotation error is the angle of
+    /// `R_toolᵀ R_target` from its skew part and trace (accurate near zero).
     fn pose_matches(&self, q: &JointVector, target: &Isometry3<f64>) -> bool {
-        let t = self.t_base_tool(q);
-        (t.translation.vector - target.translation.vector).norm() < CHECK_TOL
-            && (t.rotation.inverse() * target.rotation).angle() < CHECK_TOL
+        let c = self.chain(q);
+        let (r6, p6) = (&c.rot[N_JOINTS - 1], &c.pos[N_JOINTS - 1]);
+        let tool = &self.t_flange_tool;
+        let p = p6 + r6 * tool.translation.vector;
+        if (p - target.translation.vector).norm() >= CHECK_TOL {
+            return false;
+        }
+        let r_tool = r6 * tool.rotation.to_rotation_matrix().into_inner();
+        let e = r_tool.tr_mul(&target.rotation.to_rotation_matrix().into_inner());
+        let sin = 0.5
+            * Vector3::new(
+                e[(2, 1)] - e[(1, 2)],
+                e[(0, 2)] - e[(2, 0)],
+                e[(1, 0)] - e[(0, 1)],
+            )
+            .norm();
+        let cos = 0.5 * (e.trace() - 1.0);
+        sin.atan2(cos) < CHECK_TOL
     }
 }
 
@@ -291,6 +343,18 @@ mod tests {
             }
         }
         assert!(exact > 9_900);
+    }
+
+    #[test]
+    fn nearest_alone_is_the_nearest_of_all() {
+        let arm = arm();
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for _ in 0..2_000 {
+            let target = arm.t_base_tool(&random_q(&arm, &mut rng));
+            let q_now = random_q(&arm, &mut rng);
+            let all = arm.ik(&target, &q_now).unwrap();
+            assert_eq!(arm.ik_nearest(&target, &q_now).unwrap().as_ref(), all.nearest());
+        }
     }
 
     #[test]
