@@ -326,18 +326,29 @@ impl Multibody {
 
     /// Velocity of the tool point and angular velocity of the tool, world axes: `[v; ω]`.
     pub fn tool_velocity_world(&self, s: &State) -> Vector6<f64> {
+        self.tool_pose_velocity_world(s).1
+    }
+
+    /// [`Multibody::t_world_tool`] and [`Multibody::tool_velocity_world`] from one forward
+    /// kinematics.
+    pub fn tool_pose_velocity_world(&self, s: &State) -> (Isometry3<f64>, Vector6<f64>) {
+        let chain = self.arm.chain(&s.q);
+        let t_base_tool = chain.t_base_flange() * self.arm.t_flange_tool;
+        let t_body_tool = self.arm.t_body_base * t_base_tool;
         // In C: the vehicle's motion carried to the tool point plus the arm's Jacobian.
-        let t_body_tool = self.arm.t_body_base * self.arm.t_base_tool(&s.q);
         let p = t_body_tool.translation.vector;
         let w = Vector3::new(s.nu[3], s.nu[4], s.nu[5]);
         let v_vehicle = Vector3::new(s.nu[0], s.nu[1], s.nu[2]) + w.cross(&p);
-        let j = self.arm.jacobian(&s.q) * s.qd;
+        let j = chain.jacobian_at(&self.arm.t_flange_tool.translation.vector) * s.qd;
         let r_b0 = self.arm.t_body_base.rotation;
         let v = v_vehicle + r_b0 * Vector3::new(j[0], j[1], j[2]);
         let om = w + r_b0 * Vector3::new(j[3], j[4], j[5]);
         let r = s.t_world_body.rotation;
         let (v, om) = (r * v, r * om);
-        Vector6::new(v.x, v.y, v.z, om.x, om.y, om.z)
+        (
+            s.t_world_body * self.arm.t_body_base * t_base_tool,
+            Vector6::new(v.x, v.y, v.z, om.x, om.y, om.z),
+        )
     }
 
     /// The kinematic rates of the configuration: `ṗ = R ν_1` (world, `R` from the normalised

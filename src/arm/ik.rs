@@ -129,6 +129,12 @@ impl Arm {
         }
         let phi = py.atan2(px);
         let asn = (lateral / rho).clamp(-1.0, 1.0).asin();
+        let rx = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), -dh(5).alpha).into_inner();
+        // Frame 3 (rotation, origin) of each shoulder–elbow pair, and each candidate's pair and
+        // raw wrist angles, for the forward-kinematics check.
+        let mut frame3 = [(Matrix3::<f64>::identity(), Vector3::<f64>::zeros()); 4];
+        let mut pairs = 0;
+        let mut wrist_of = [(0usize, [0.0; 3]); 8];
         for theta1 in [phi + asn, phi + PI - asn] {
             let (s1, c1) = theta1.sin_cos();
             let r = c1 * px + s1 * py;
@@ -137,15 +143,17 @@ impl Arm {
                 continue;
             }
             let beta0 = cos_beta.clamp(-1.0, 1.0).acos();
+            let elevation = pz.atan2(r);
             for beta in [beta0, -beta0] {
-                let theta2 = pz.atan2(r) - (l3 * beta.sin()).atan2(a2 + l3 * beta.cos());
+                let theta2 = elevation - (l3 * beta.sin()).atan2(a2 + l3 * beta.cos());
                 let theta3 = beta - psi;
                 let q123 = [theta1 - off(0), theta2 - off(1), theta3 - off(2)];
-                let r03 = (0..3).fold(Matrix3::<f64>::identity(), |acc, i| {
-                    acc * l[i].xform(q123[i]).rot.transpose()
-                });
+                let (mut r03, mut p03) = (Matrix3::identity(), Vector3::zeros());
+                self.advance(&mut r03, &mut p03, 0, &q123);
+                let pair = pairs;
+                frame3[pair] = (r03, p03);
+                pairs += 1;
                 // R_3_6 Rx(−α6) = Rz(θ4) Ry(−θ5) Rz(θ6).
-                let rx = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), -dh(5).alpha).into_inner();
                 let m: Matrix3<f64> = r03.transpose() * r06 * rx;
                 let sb = m[(0, 2)].hypot(m[(1, 2)]);
                 let wrists: [(f64, f64, f64); 2] = if sb < 1e-10 {
@@ -182,22 +190,26 @@ impl Arm {
                     ];
                     if let Some(q) = self.fit_limits(&raw, q_now) {
                         out.solutions[out.len] = q;
+                        wrist_of[out.len] = (pair, [raw[3], raw[4], raw[5]]);
                         out.len += 1;
                     }
                 }
             }
         }
-        let dist = |q: &JointVector| (q - q_now).norm_squared();
-        out.solutions[..out.len].sort_by(|a, b| dist(a).total_cmp(&dist(b)));
         let candidates = out.len;
+        let dist: [f64; 8] = std::array::from_fn(|i| (out.solutions[i] - q_now).norm_squared());
+        let mut order: [usize; 8] = std::array::from_fn(|i| i);
+        order[..candidates].sort_by(|&a, &b| dist[a].total_cmp(&dist[b]));
+        let found = out.solutions;
         out.len = 0;
-        for i in 0..candidates {
+        for &i in &order[..candidates] {
             if out.len == wanted {
                 break;
             }
-            let q = out.solutions[i];
-            if self.pose_matches(&q, t_base_tool) {
-                out.solutions[out.len] = q;
+            let (pair, wrist) = &wrist_of[i];
+            let (r03, p03) = &frame3[*pair];
+            if self.wrist_matches(r03, p03, wrist, t_base_tool) {
+                out.solutions[out.len] = found[i];
                 out.len += 1;
             }
         }
@@ -254,11 +266,26 @@ impl Arm {
     }
 
     /// Whether the tool pose at `q` is `target` to [`CHECK_TOL`].
-    /// Forward kinematics by the link rotation matrices; the rotation error is the angle of
-    /// `R_toolᵀ R_target` from its skew part and trace (accurate near zero).
+    /// Whether the tool pose at `q` is `target` to [`CHECK_TOL`].
+    #[cfg(test)]
     fn pose_matches(&self, q: &JointVector, target: &Isometry3<f64>) -> bool {
-        let c = self.chain(q);
-        let (r6, p6) = (&c.rot[N_JOINTS - 1], &c.pos[N_JOINTS - 1]);
+        let (mut r03, mut p03) = (Matrix3::identity(), Vector3::zeros());
+        self.advance(&mut r03, &mut p03, 0, &[q[0], q[1], q[2]]);
+        self.wrist_matches(&r03, &p03, &[q[3], q[4], q[5]], target)
+    }
+
+    /// Whether the tool pose with frame 3 at (`r03`, `p03`) and the wrist at `wrist` is `target`
+    /// to [`CHECK_TOL`]: forward kinematics by the link rotation matrices, the rotation error the
+    /// angle of `R_toolᵀ R_target` from its skew part and trace (accurate near zero).
+    fn wrist_matches(
+        &self,
+        r03: &Matrix3<f64>,
+        p03: &Vector3<f64>,
+        wrist: &[f64; 3],
+        target: &Isometry3<f64>,
+    ) -> bool {
+        let (mut r6, mut p6) = (*r03, *p03);
+        self.advance(&mut r6, &mut p6, 3, wrist);
         let tool = &self.t_flange_tool;
         let p = p6 + r6 * tool.translation.vector;
         if (p - target.translation.vector).norm() >= CHECK_TOL {
