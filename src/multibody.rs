@@ -377,7 +377,8 @@ fn solve_spd(h: GenMatrix, b: &GenVector) -> Option<GenVector> {
             row_j[k] = s / row_k[k];
         }
         let d = row_j[j] - row_j[..j].iter().map(|v| v * v).sum::<f64>();
-        if !(d > 0.0) {
+        // Not positive (or NaN): not positive definite.
+        if d.is_nan() || d <= 0.0 {
             return None;
         }
         row_j[j] = d.sqrt();
