@@ -109,12 +109,22 @@ impl CylinderDrag {
         let a = uc - e * u_ax;
         let b = v.ang.cross(e);
         let (aa, ab, bb) = (a.norm_squared(), 2.0 * a.dot(&b), b.norm_squared());
+        let speed = |s: f64| (aa + s * (ab + s * bb)).max(0.0).sqrt();
         let (mut s0, mut s1, mut s2) = (0.0, 0.0, 0.0);
-        for &s in &self.offsets[..self.strips] {
-            let w = (aa + s * (ab + s * bb)).max(0.0).sqrt();
+        let mut add = |w: f64, s: f64| {
             s0 += w;
             s1 += w * s;
             s2 += w * s * s;
+        };
+        // Two strips at a time: their square roots are independent (one packed instruction).
+        let mut pairs = self.offsets[..self.strips].chunks_exact(2);
+        for p in &mut pairs {
+            let (w0, w1) = (speed(p[0]), speed(p[1]));
+            add(w0, p[0]);
+            add(w1, p[1]);
+        }
+        for &s in pairs.remainder() {
+            add(speed(s), s);
         }
         let k = -self.strip_coefficient;
         let f_cross = (a * s0 + b * s1) * k;

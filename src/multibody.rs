@@ -366,6 +366,8 @@ fn solve_spd(h: GenMatrix, b: &GenVector) -> Option<GenVector> {
     const N: usize = NDOF;
     // Column-major storage of a symmetric matrix: `l[r]` is row `r` (and column `r`).
     let mut l: [[f64; N]; N] = h.data.0;
+    // The reciprocals of L's diagonal: one division per row instead of one per element.
+    let mut inv = [0.0; N];
     for j in 0..N {
         let (done, rest) = l.split_at_mut(j);
         let row_j = &mut rest[0];
@@ -374,7 +376,7 @@ fn solve_spd(h: GenMatrix, b: &GenVector) -> Option<GenVector> {
             for m in 0..k {
                 s -= row_j[m] * row_k[m];
             }
-            row_j[k] = s / row_k[k];
+            row_j[k] = s * inv[k];
         }
         let d = row_j[j] - row_j[..j].iter().map(|v| v * v).sum::<f64>();
         // Not positive (or NaN): not positive definite.
@@ -382,15 +384,16 @@ fn solve_spd(h: GenMatrix, b: &GenVector) -> Option<GenVector> {
             return None;
         }
         row_j[j] = d.sqrt();
+        inv[j] = 1.0 / row_j[j];
     }
     let mut x = *b;
     for i in 0..N {
         let s = x[i] - (0..i).map(|k| l[i][k] * x[k]).sum::<f64>();
-        x[i] = s / l[i][i];
+        x[i] = s * inv[i];
     }
     for i in (0..N).rev() {
         let s = x[i] - (i + 1..N).map(|k| l[k][i] * x[k]).sum::<f64>();
-        x[i] = s / l[i][i];
+        x[i] = s * inv[i];
     }
     Some(x)
 }
