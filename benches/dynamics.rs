@@ -1,8 +1,8 @@
 //! Per-call cost of the dynamics: RNEA, CRBA and forward dynamics of the 6-DOF arm (the
 //! rigid PUMA 560 of the reference, as Pinocchio's figures: RNEA 1.05 µs, CRBA 0.55 µs, ABA
 //! 2.3 µs on this machine class), the same underwater (added mass, strip drag, buoyancy), one
-//! forward-dynamics evaluation of the whole floating system, FK/Jacobian/IK and one RK4 plant
-//! step. After criterion's report, a table of the *minimum* time per call over 200 batches,
+//! forward-dynamics evaluation of the whole floating system, FK/Jacobian/IK (all solutions, and
+//! the nearest alone) and one RK4 plant step. After criterion's report, a table of the *minimum* time per call over 200 batches,
 //! which stays stable on a shared, loaded machine where criterion's means do not.
 //!
 //! `cargo bench --bench dynamics`
@@ -74,10 +74,17 @@ fn cases<'a>(rtb: &'a UvmsModel, def: &'a UvmsModel, plant: &'a mut Plant) -> Ve
             black_box(black_box(&a2).jacobian(black_box(&q)));
         }),
     ));
+    let a3 = arm.clone();
     out.push((
         "arm/ik_all_solutions".into(),
         Box::new(move || {
             black_box(black_box(&arm).ik(black_box(&target), black_box(&q)).ok());
+        }),
+    ));
+    out.push((
+        "arm/ik_nearest".into(),
+        Box::new(move || {
+            black_box(black_box(&a3).ik_nearest(black_box(&target), black_box(&q)).ok());
         }),
     ));
     let sys = plant.system.clone();

@@ -26,9 +26,7 @@ use crate::error::{Error, Result};
 use crate::model::{N_JOINTS, UvmsModel};
 use crate::spatial_algebra::{Force, Inertia, Motion, Xform};
 use crate::vehicle::hydro::vehicle_body;
-use nalgebra::{
-    Cholesky, Isometry3, Matrix6, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3, Vector6,
-};
+use nalgebra::{Isometry3, Matrix6, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
 
 /// Degrees of freedom of the floating system.
 pub const NDOF: usize = 6 + N_JOINTS;
@@ -215,15 +213,15 @@ impl Multibody {
     fn mass_matrix_from(&self, xs: &LinkTransforms) -> GenMatrix {
         let mut hqq = Matrix6::zeros();
         let mut cols = Matrix6::zeros();
-        let arm_in_base = self.arm.crba::<true>(xs, &mut hqq, &mut cols);
-        let hvv: Inertia = self.vehicle.total + self.arm.mount.inertia_inv(&arm_in_base);
+        // The links' coupling and composite straight in `C`: the mount composed with `x[0]`.
+        let root = self.arm.mount.then(&xs.x[0]);
+        let arm_in_body = self.arm.crba::<true>(xs, &root, &mut hqq, &mut cols);
+        let hvv: Inertia = self.vehicle.total + arm_in_body;
         let mut h = GenMatrix::zeros();
         h.fixed_view_mut::<6, 6>(0, 0).copy_from(&hvv.to_matrix6());
+        h.fixed_view_mut::<6, 6>(0, 6).copy_from(&cols);
+        h.fixed_view_mut::<6, 6>(6, 0).copy_from(&cols.transpose());
         for j in 0..N_JOINTS {
-            let col = Force::from_vector6(&cols.column(j).into_owned());
-            let in_body = self.arm.mount.force_inv(&col).to_vector6();
-            h.fixed_view_mut::<6, 1>(0, 6 + j).copy_from(&in_body);
-            h.fixed_view_mut::<1, 6>(6 + j, 0).copy_from(&in_body.transpose());
             hqq[(j, j)] += self.arm.links[j].armature;
         }
         h.fixed_view_mut::<6, 6>(6, 6).copy_from(&hqq);
@@ -248,9 +246,8 @@ impl Multibody {
         for j in 0..N_JOINTS {
             rhs[6 + j] += u.tau_drive[j] - friction[j];
         }
-        let zd = Cholesky::new(h)
-            .ok_or_else(|| Error::failed("dynamics", "the mass matrix is not positive definite"))?
-            .solve(&rhs);
+        let zd = solve_spd(h, &rhs)
+            .ok_or_else(|| Error::failed("dynamics", "the mass matrix is not positive definite"))?;
         let qdd: JointVector = zd.fixed_rows::<N_JOINTS>(6).into_owned();
         Ok(Accelerations {
             nu_dot: zd.fixed_rows::<6>(0).into_owned(),
@@ -329,18 +326,29 @@ impl Multibody {
 
     /// Velocity of the tool point and angular velocity of the tool, world axes: `[v; ω]`.
     pub fn tool_velocity_world(&self, s: &State) -> Vector6<f64> {
+        self.tool_pose_velocity_world(s).1
+    }
+
+    /// [`Multibody::t_world_tool`] and [`Multibody::tool_velocity_world`] from one forward
+    /// kinematics.
+    pub fn tool_pose_velocity_world(&self, s: &State) -> (Isometry3<f64>, Vector6<f64>) {
+        let chain = self.arm.chain(&s.q);
+        let t_base_tool = chain.t_base_flange() * self.arm.t_flange_tool;
+        let t_body_tool = self.arm.t_body_base * t_base_tool;
         // In C: the vehicle's motion carried to the tool point plus the arm's Jacobian.
-        let t_body_tool = self.arm.t_body_base * self.arm.t_base_tool(&s.q);
         let p = t_body_tool.translation.vector;
         let w = Vector3::new(s.nu[3], s.nu[4], s.nu[5]);
         let v_vehicle = Vector3::new(s.nu[0], s.nu[1], s.nu[2]) + w.cross(&p);
-        let j = self.arm.jacobian(&s.q) * s.qd;
+        let j = chain.jacobian_at(&self.arm.t_flange_tool.translation.vector) * s.qd;
         let r_b0 = self.arm.t_body_base.rotation;
         let v = v_vehicle + r_b0 * Vector3::new(j[0], j[1], j[2]);
         let om = w + r_b0 * Vector3::new(j[3], j[4], j[5]);
         let r = s.t_world_body.rotation;
         let (v, om) = (r * v, r * om);
-        Vector6::new(v.x, v.y, v.z, om.x, om.y, om.z)
+        (
+            s.t_world_body * self.arm.t_body_base * t_base_tool,
+            Vector6::new(v.x, v.y, v.z, om.x, om.y, om.z),
+        )
     }
 
     /// The kinematic rates of the configuration: `ṗ = R ν_1` (world, `R` from the normalised
@@ -350,6 +358,44 @@ impl Multibody {
         let w = Quaternion::new(0.0, nu[3], nu[4], nu[5]);
         (UnitQuaternion::from_quaternion(*q) * v, q * w * 0.5)
     }
+}
+
+/// Solves `H x = b` for a symmetric positive definite `H` by its Cholesky factor `H = L Lᵀ`
+/// (computed in place from the lower triangle); `None` if `H` is not positive definite.
+fn solve_spd(h: GenMatrix, b: &GenVector) -> Option<GenVector> {
+    const N: usize = NDOF;
+    // Column-major storage of a symmetric matrix: `l[r]` is row `r` (and column `r`).
+    let mut l: [[f64; N]; N] = h.data.0;
+    // The reciprocals of L's diagonal: one division per row instead of one per element.
+    let mut inv = [0.0; N];
+    for j in 0..N {
+        let (done, rest) = l.split_at_mut(j);
+        let row_j = &mut rest[0];
+        for (k, row_k) in done.iter().enumerate() {
+            let mut s = row_j[k];
+            for m in 0..k {
+                s -= row_j[m] * row_k[m];
+            }
+            row_j[k] = s * inv[k];
+        }
+        let d = row_j[j] - row_j[..j].iter().map(|v| v * v).sum::<f64>();
+        // Not positive (or NaN): not positive definite.
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        row_j[j] = d.sqrt();
+        inv[j] = 1.0 / row_j[j];
+    }
+    let mut x = *b;
+    for i in 0..N {
+        let s = x[i] - (0..i).map(|k| l[i][k] * x[k]).sum::<f64>();
+        x[i] = s * inv[i];
+    }
+    for i in (0..N).rev() {
+        let s = x[i] - (i + 1..N).map(|k| l[k][i] * x[k]).sum::<f64>();
+        x[i] = s * inv[i];
+    }
+    Some(x)
 }
 
 #[cfg(test)]
@@ -382,6 +428,19 @@ mod tests {
         let got = sys.tool_velocity_world(&s);
         assert!((got.fixed_rows::<3>(0) - v).norm() < 1e-5, "{got} vs {v}");
         assert!((got.fixed_rows::<3>(3) - w).norm() < 1e-5, "{got} vs {w}");
+    }
+
+    #[test]
+    fn solve_spd_agrees_with_nalgebra_and_refuses_indefinite() {
+        let sys = Multibody::new(&UvmsModel::default()).unwrap();
+        let h = sys.mass_matrix(&JointVector::new(0.2, 0.9, -2.0, 0.3, 0.8, -0.2));
+        let b = GenVector::from_fn(|i, _| (i as f64 * 0.7).sin() * 10.0);
+        let x = solve_spd(h, &b).unwrap();
+        let want = h.cholesky().unwrap().solve(&b);
+        assert!((x - want).norm() < 1e-12 * want.norm(), "{x} vs {want}");
+        let mut bad = h;
+        bad[(7, 7)] = -1.0;
+        assert!(solve_spd(bad, &b).is_none());
     }
 
     #[test]

@@ -178,13 +178,15 @@ impl Arm {
     }
 
     /// The composite-rigid-body algorithm: the joint-space mass matrix of the links (rigid +
-    /// added mass, no rotor inertia) into `h`. With `FLOATING`, also the coupling with the base:
-    /// `base_cols` column `j` is the wrench (base frame) that a unit `q̈_j` needs at the base, and
-    /// the returned inertia is the composite of all links in the base frame.
+    /// added mass, no rotor inertia) into `h`. With `FLOATING`, also the coupling with the base
+    /// in the frame `root` maps into frame 1 (`xs.x[0]` for the base frame 0 itself, or the
+    /// vehicle's mount composed with it): `base_cols` column `j` is the wrench that a unit `q̈_j`
+    /// needs there, and the returned inertia is the composite of all links there.
     #[inline]
     pub(crate) fn crba<const FLOATING: bool>(
         &self,
         xs: &LinkTransforms,
+        root: &Xform,
         h: &mut Matrix6<f64>,
         base_cols: &mut Matrix6<f64>,
     ) -> Inertia {
@@ -205,12 +207,12 @@ impl Arm {
                 h[(j, i)] = hij;
             }
             if FLOATING {
-                let fb = xs.x[0].force_inv(&f);
+                let fb = root.force_inv(&f);
                 base_cols.fixed_view_mut::<6, 1>(0, i).copy_from(&fb.to_vector6());
             }
         }
         if FLOATING {
-            xs.x[0].inertia_inv(&ic[0])
+            root.inertia_inv(&ic[0])
         } else {
             Inertia::ZERO
         }
@@ -220,7 +222,8 @@ impl Arm {
     pub fn mass_matrix_rigid(&self, q: &JointVector) -> Matrix6<f64> {
         let mut h = Matrix6::zeros();
         let mut unused = Matrix6::zeros();
-        self.crba::<false>(&self.transforms(q), &mut h, &mut unused);
+        let xs = self.transforms(q);
+        self.crba::<false>(&xs, &xs.x[0], &mut h, &mut unused);
         h
     }
 
@@ -256,7 +259,7 @@ impl Arm {
         );
         let mut h = Matrix6::zeros();
         let mut unused = Matrix6::zeros();
-        self.crba::<false>(&xs, &mut h, &mut unused);
+        self.crba::<false>(&xs, &xs.x[0], &mut h, &mut unused);
         for i in 0..N_JOINTS {
             h[(i, i)] += self.links[i].armature;
         }

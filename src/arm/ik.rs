@@ -70,6 +70,32 @@ impl Arm {
     /// [`Error::Input`] if the arm's DH table is not of the PUMA class (see the module docs) or
     /// the pose is not finite. An unreachable pose is not an error: the result is empty.
     pub fn ik(&self, t_base_tool: &Isometry3<f64>, q_now: &JointVector) -> Result<IkSolutions> {
+        self.solve_ik(t_base_tool, q_now, 8)
+    }
+
+    /// The inverse-kinematics solution nearest to `q_now` within the joint limits (what
+    /// [`Arm::ik`]'s [`IkSolutions::nearest`] gives), checking only the candidates up to it.
+    ///
+    /// # Errors
+    /// As [`Arm::ik`].
+    pub fn ik_nearest(
+        &self,
+        t_base_tool: &Isometry3<f64>,
+        q_now: &JointVector,
+    ) -> Result<Option<JointVector>> {
+        Ok(self.solve_ik(t_base_tool, q_now, 1)?.nearest().copied())
+    }
+
+    /// The `wanted` solutions nearest to `q_now`: every analytic solution moved into the limits,
+    /// sorted by distance (stable), and checked by forward kinematics in that order until
+    /// `wanted` pass. For `wanted = 1` the search is pruned (see below) and `analytic` counts
+    /// only the solutions looked at.
+    fn solve_ik(
+        &self,
+        t_base_tool: &Isometry3<f64>,
+        q_now: &JointVector,
+        wanted: usize,
+    ) -> Result<IkSolutions> {
         self.check_puma_structure()?;
         if !t_base_tool.to_homogeneous().iter().all(|v| v.is_finite()) || !q_now.iter().all(|v| v.is_finite())
         {
@@ -104,6 +130,10 @@ impl Arm {
         }
         let phi = py.atan2(px);
         let asn = (lateral / rho).clamp(-1.0, 1.0).asin();
+        let rx = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), -dh(5).alpha).into_inner();
+        // The shoulder–elbow pairs (raw q1..q3), in the order of the analytic solutions.
+        let mut pairs = [[0.0; 3]; 4];
+        let mut n_pairs = 0;
         for theta1 in [phi + asn, phi + PI - asn] {
             let (s1, c1) = theta1.sin_cos();
             let r = c1 * px + s1 * py;
@@ -112,60 +142,116 @@ impl Arm {
                 continue;
             }
             let beta0 = cos_beta.clamp(-1.0, 1.0).acos();
+            let elevation = pz.atan2(r);
             for beta in [beta0, -beta0] {
-                let theta2 = pz.atan2(r) - (l3 * beta.sin()).atan2(a2 + l3 * beta.cos());
+                let theta2 = elevation - (l3 * beta.sin()).atan2(a2 + l3 * beta.cos());
                 let theta3 = beta - psi;
-                let q123 = [theta1 - off(0), theta2 - off(1), theta3 - off(2)];
-                let r03 = (0..3).fold(Matrix3::<f64>::identity(), |acc, i| {
-                    acc * l[i].xform(q123[i]).rot.transpose()
-                });
-                // R_3_6 Rx(−α6) = Rz(θ4) Ry(−θ5) Rz(θ6).
-                let rx = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), -dh(5).alpha).into_inner();
-                let m: Matrix3<f64> = r03.transpose() * r06 * rx;
-                let sb = m[(0, 2)].hypot(m[(1, 2)]);
-                let wrists: [(f64, f64, f64); 2] = if sb < 1e-10 {
-                    let theta4 = q_now[3] + off(3);
-                    let (b, sum_or_diff) = if m[(2, 2)] > 0.0 {
-                        (0.0, m[(1, 0)].atan2(m[(0, 0)]))
-                    } else {
-                        (PI, (-m[(1, 0)]).atan2(m[(1, 1)]))
-                    };
-                    let theta6 = if b == 0.0 {
-                        sum_or_diff - theta4
-                    } else {
-                        theta4 - sum_or_diff
-                    };
-                    [(theta4, b, theta6); 2]
+                pairs[n_pairs] = [theta1 - off(0), theta2 - off(1), theta3 - off(2)];
+                n_pairs += 1;
+            }
+        }
+        let nearest_only = wanted == 1;
+        // For the nearest alone, the pairs nearest to `q_now` in q1..q3 first, and a pair whose
+        // q1..q3 alone are already farther than the best checked solution is skipped (the
+        // margin covers the summation's round-off; ties keep the analytic order).
+        let mut order: [usize; 4] = std::array::from_fn(|i| i);
+        let mut partial = [f64::INFINITY; 4];
+        if nearest_only {
+            for (d, pair) in partial.iter_mut().zip(&pairs[..n_pairs]) {
+                if let Some(q) = self.fit_joints(pair, 0, q_now) {
+                    *d = (0..3).map(|i| (q[i] - q_now[i]).powi(2)).sum();
+                }
+            }
+            order[..n_pairs].sort_by(|&a, &b| partial[a].total_cmp(&partial[b]));
+        }
+        let dist = |q: &JointVector| (q - q_now).norm_squared();
+        let mut best: Option<(f64, usize, JointVector)> = None;
+        // Frame 3 (rotation, origin) of each pair, and each candidate's pair and raw wrist
+        // angles, for the forward-kinematics check.
+        let mut frame3 = [(Matrix3::<f64>::identity(), Vector3::<f64>::zeros()); 4];
+        let mut wrist_of = [(0usize, [0.0; 3]); 8];
+        for &pair in &order[..n_pairs] {
+            if nearest_only
+                && (partial[pair].is_infinite()
+                    || best.is_some_and(|(d, _, _)| partial[pair] > d * (1.0 + 1e-9)))
+            {
+                continue;
+            }
+            let q123 = pairs[pair];
+            let (mut r03, mut p03) = (Matrix3::identity(), Vector3::zeros());
+            self.advance(&mut r03, &mut p03, 0, &q123);
+            frame3[pair] = (r03, p03);
+            // R_3_6 Rx(−α6) = Rz(θ4) Ry(−θ5) Rz(θ6).
+            let m: Matrix3<f64> = r03.transpose() * r06 * rx;
+            let sb = m[(0, 2)].hypot(m[(1, 2)]);
+            let wrists: [(f64, f64, f64); 2] = if sb < 1e-10 {
+                let theta4 = q_now[3] + off(3);
+                let (b, sum_or_diff) = if m[(2, 2)] > 0.0 {
+                    (0.0, m[(1, 0)].atan2(m[(0, 0)]))
                 } else {
-                    [1.0, -1.0].map(|sg: f64| {
-                        let b = (sg * sb).atan2(m[(2, 2)]);
-                        let theta4 = (sg * m[(1, 2)]).atan2(sg * m[(0, 2)]);
-                        let theta6 = (sg * m[(2, 1)]).atan2(-sg * m[(2, 0)]);
-                        (theta4, b, theta6)
-                    })
+                    (PI, (-m[(1, 0)]).atan2(m[(1, 1)]))
                 };
-                let distinct = if sb < 1e-10 { 1 } else { 2 };
-                for &(theta4, b, theta6) in &wrists[..distinct] {
-                    out.analytic += 1;
-                    let raw = [
-                        q123[0],
-                        q123[1],
-                        q123[2],
-                        theta4 - off(3),
-                        -b - off(4),
-                        theta6 - off(5),
-                    ];
-                    if let Some(q) = self.fit_limits(&raw, q_now)
-                        && self.pose_matches(&q, t_base_tool)
+                let theta6 = if b == 0.0 {
+                    sum_or_diff - theta4
+                } else {
+                    theta4 - sum_or_diff
+                };
+                [(theta4, b, theta6); 2]
+            } else {
+                [1.0, -1.0].map(|sg: f64| {
+                    let b = (sg * sb).atan2(m[(2, 2)]);
+                    let theta4 = (sg * m[(1, 2)]).atan2(sg * m[(0, 2)]);
+                    let theta6 = (sg * m[(2, 1)]).atan2(-sg * m[(2, 0)]);
+                    (theta4, b, theta6)
+                })
+            };
+            let distinct = if sb < 1e-10 { 1 } else { 2 };
+            for (w, &(theta4, b, theta6)) in wrists[..distinct].iter().enumerate() {
+                out.analytic += 1;
+                let wrist = [theta4 - off(3), -b - off(4), theta6 - off(5)];
+                let raw = [q123[0], q123[1], q123[2], wrist[0], wrist[1], wrist[2]];
+                let Some(q) = self.fit_limits(&raw, q_now) else {
+                    continue;
+                };
+                if nearest_only {
+                    // Analytic order: two wrists per pair.
+                    let (d, rank) = (dist(&q), 2 * pair + w);
+                    if best.is_none_or(|(bd, br, _)| d < bd || (d == bd && rank < br))
+                        && self.wrist_matches(&r03, &p03, &wrist, t_base_tool)
                     {
-                        out.solutions[out.len] = q;
-                        out.len += 1;
+                        best = Some((d, rank, q));
                     }
+                } else {
+                    out.solutions[out.len] = q;
+                    wrist_of[out.len] = (pair, wrist);
+                    out.len += 1;
                 }
             }
         }
-        let dist = |q: &JointVector| (q - q_now).norm_squared();
-        out.solutions[..out.len].sort_by(|a, b| dist(a).total_cmp(&dist(b)));
+        if nearest_only {
+            if let Some((_, _, q)) = best {
+                out.solutions[0] = q;
+                out.len = 1;
+            }
+            return Ok(out);
+        }
+        let candidates = out.len;
+        let d: [f64; 8] = std::array::from_fn(|i| dist(&out.solutions[i]));
+        let mut by_distance: [usize; 8] = std::array::from_fn(|i| i);
+        by_distance[..candidates].sort_by(|&a, &b| d[a].total_cmp(&d[b]));
+        let found = out.solutions;
+        out.len = 0;
+        for &i in &by_distance[..candidates] {
+            if out.len == wanted {
+                break;
+            }
+            let (pair, wrist) = &wrist_of[i];
+            let (r03, p03) = &frame3[*pair];
+            if self.wrist_matches(r03, p03, wrist, t_base_tool) {
+                out.solutions[out.len] = found[i];
+                out.len += 1;
+            }
+        }
         Ok(out)
     }
 
@@ -196,33 +282,75 @@ impl Arm {
     /// Moves each angle by a multiple of 2π into its limits, nearest to `q_now`; `None` if an
     /// angle cannot be placed within its limits.
     fn fit_limits(&self, raw: &[f64; N_JOINTS], q_now: &JointVector) -> Option<JointVector> {
-        let mut q = JointVector::zeros();
-        for i in 0..N_JOINTS {
+        Some(JointVector::from(self.fit_joints(raw, 0, q_now)?))
+    }
+
+    /// [`Arm::fit_limits`] of the joints `first..first + N` alone.
+    fn fit_joints<const N: usize>(
+        &self,
+        raw: &[f64; N],
+        first: usize,
+        q_now: &JointVector,
+    ) -> Option<[f64; N]> {
+        let mut q = [0.0; N];
+        for (j, qj) in q.iter_mut().enumerate() {
+            let (i, raw) = (first + j, raw[j]);
             let [lo, hi] = self.links[i].limits;
             // Candidates raw + 2πk inside [lo, hi]; the one nearest to q_now.
-            let k_lo = ((lo - raw[i]) / TAU).ceil() as i64;
-            let k_hi = ((hi - raw[i]) / TAU).floor() as i64;
+            let k_lo = ((lo - raw) / TAU).ceil() as i64;
+            let k_hi = ((hi - raw) / TAU).floor() as i64;
             if k_lo > k_hi {
                 // Tolerate round-off at a limit.
-                let clamped = raw[i] - TAU * ((raw[i] - 0.5 * (lo + hi)) / TAU).round();
+                let clamped = raw - TAU * ((raw - 0.5 * (lo + hi)) / TAU).round();
                 if clamped >= lo - 1e-12 && clamped <= hi + 1e-12 {
-                    q[i] = clamped.clamp(lo, hi);
+                    *qj = clamped.clamp(lo, hi);
                     continue;
                 }
                 return None;
             }
-            let k_near = ((q_now[i] - raw[i]) / TAU).round() as i64;
+            let k_near = ((q_now[i] - raw) / TAU).round() as i64;
             let k = k_near.clamp(k_lo, k_hi);
-            q[i] = raw[i] + TAU * k as f64;
+            *qj = raw + TAU * k as f64;
         }
         Some(q)
     }
 
     /// Whether the tool pose at `q` is `target` to [`CHECK_TOL`].
+    #[cfg(test)]
     fn pose_matches(&self, q: &JointVector, target: &Isometry3<f64>) -> bool {
-        let t = self.t_base_tool(q);
-        (t.translation.vector - target.translation.vector).norm() < CHECK_TOL
-            && (t.rotation.inverse() * target.rotation).angle() < CHECK_TOL
+        let (mut r03, mut p03) = (Matrix3::identity(), Vector3::zeros());
+        self.advance(&mut r03, &mut p03, 0, &[q[0], q[1], q[2]]);
+        self.wrist_matches(&r03, &p03, &[q[3], q[4], q[5]], target)
+    }
+
+    /// Whether the tool pose with frame 3 at (`r03`, `p03`) and the wrist at `wrist` is `target`
+    /// to [`CHECK_TOL`]: forward kinematics by the link rotation matrices, the rotation error the
+    /// angle of `R_toolᵀ R_target` from its skew part and trace (accurate near zero).
+    fn wrist_matches(
+        &self,
+        r03: &Matrix3<f64>,
+        p03: &Vector3<f64>,
+        wrist: &[f64; 3],
+        target: &Isometry3<f64>,
+    ) -> bool {
+        let (mut r6, mut p6) = (*r03, *p03);
+        self.advance(&mut r6, &mut p6, 3, wrist);
+        let tool = &self.t_flange_tool;
+        let p = p6 + r6 * tool.translation.vector;
+        if (p - target.translation.vector).norm() >= CHECK_TOL {
+            return false;
+        }
+        let r_tool = r6 * tool.rotation.to_rotation_matrix().into_inner();
+        let e = r_tool.tr_mul(&target.rotation.to_rotation_matrix().into_inner());
+        let sin = 0.5
+            * Vector3::new(
+                e[(2, 1)] - e[(1, 2)],
+                e[(0, 2)] - e[(2, 0)],
+                e[(1, 0)] - e[(0, 1)],
+            )
+            .norm();
+        let cos = 0.5 * (e.trace() - 1.0);
+        sin.atan2(cos) < CHECK_TOL
     }
 }
 
@@ -291,6 +419,24 @@ mod tests {
             }
         }
         assert!(exact > 9_900);
+    }
+
+    #[test]
+    fn nearest_alone_is_the_nearest_of_all() {
+        let arm = arm();
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for k in 0..4_000 {
+            let q = random_q(&arm, &mut rng);
+            let target = arm.t_base_tool(&q);
+            // A far configuration, or one near the solution (as when following a path).
+            let q_now = if k % 2 == 0 {
+                random_q(&arm, &mut rng)
+            } else {
+                q + JointVector::from_fn(|_, _| rng.random_range(-0.05..0.05))
+            };
+            let all = arm.ik(&target, &q_now).unwrap();
+            assert_eq!(arm.ik_nearest(&target, &q_now).unwrap().as_ref(), all.nearest());
+        }
     }
 
     #[test]

@@ -26,19 +26,28 @@ impl Arm {
         let mut pos = [Vector3::zeros(); N_JOINTS];
         let (mut r, mut p) = (Matrix3::identity(), Vector3::zeros());
         for i in 0..N_JOINTS {
-            let x = self.links[i].xform(q[i]);
-            p += r * x.pos;
-            r *= x.rot.transpose();
+            self.advance(&mut r, &mut p, i, &[q[i]]);
             rot[i] = r;
             pos[i] = p;
         }
         Chain { rot, pos }
     }
 
+    /// Moves the frame of link `first` (`r`, `p`: its rotation and origin in the base frame; the
+    /// base frame itself for `first = 0`) through the joints `first + 1 ..= first + q.len()` at
+    /// the angles `q`.
+    #[inline]
+    pub(crate) fn advance(&self, r: &mut Matrix3<f64>, p: &mut Vector3<f64>, first: usize, q: &[f64]) {
+        for (link, &qi) in self.links[first..].iter().zip(q) {
+            let x = link.xform(qi);
+            *p += *r * x.pos;
+            *r *= x.rot.transpose();
+        }
+    }
+
     /// Pose of DH frame 6 (the flange) in the base frame.
     pub fn t_base_flange(&self, q: &JointVector) -> Isometry3<f64> {
-        let c = self.chain(q);
-        isometry(&c.rot[N_JOINTS - 1], &c.pos[N_JOINTS - 1])
+        self.chain(q).t_base_flange()
     }
 
     /// Pose of the tool frame `G` in the base frame.
@@ -53,7 +62,20 @@ impl Arm {
 
     /// Geometric Jacobian of the point `p6` (m, in frame 6 coordinates) fixed to link 6.
     pub fn jacobian_at(&self, q: &JointVector, p6: &Vector3<f64>) -> Matrix6<f64> {
-        let c = self.chain(q);
+        self.chain(q).jacobian_at(p6)
+    }
+}
+
+impl Chain {
+    /// Pose of DH frame 6 (the flange) in the base frame.
+    pub fn t_base_flange(&self) -> Isometry3<f64> {
+        isometry(&self.rot[N_JOINTS - 1], &self.pos[N_JOINTS - 1])
+    }
+
+    /// Geometric Jacobian of the point `p6` (m, in frame 6 coordinates) fixed to link 6, as
+    /// [`Arm::jacobian_at`].
+    pub fn jacobian_at(&self, p6: &Vector3<f64>) -> Matrix6<f64> {
+        let c = self;
         let p = c.pos[N_JOINTS - 1] + c.rot[N_JOINTS - 1] * p6;
         let mut j = Matrix6::zeros();
         for i in 0..N_JOINTS {

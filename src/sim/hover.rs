@@ -163,28 +163,54 @@ fn utilisation(
     let mut tau = Vector6::zeros();
     tau.fixed_rows_mut::<3>(0).copy_from(&-f);
     tau.fixed_rows_mut::<3>(3).copy_from(&-p.cross(&f));
-    thrusters.allocate(&tau).utilisation
+    thrusters.utilisation(&tau)
+}
+
+impl Reach {
+    /// Whether a branch at `self` (going on to all `n` samples) could still beat `bar`: its
+    /// manipulability only falls and its utilisation only grows as it goes on, so once it
+    /// cannot beat a `bar` that reached every sample, following it further changes nothing.
+    fn can_beat(&self, bar: Option<&Reach>, n: usize, limit: f64) -> bool {
+        match bar {
+            Some(b) if b.reached == n => {
+                if b.utilisation <= limit {
+                    self.utilisation <= limit && self.manipulability > b.manipulability
+                } else {
+                    self.utilisation < b.utilisation
+                }
+            }
+            _ => true,
+        }
+    }
 }
 
 /// Follows each IK branch of the first target along `targets` (world tool poses, with the
 /// environment's expected force on the tool) for the vehicle at `t_world_body`; the best
-/// branch.
+/// branch. A branch is given up as soon as it cannot beat `bar` (the best candidate so far).
 fn follow(
     arm: &Arm,
     thrusters: &Thrusters,
     t_world_body: &Isometry3<f64>,
     targets: &[(Isometry3<f64>, Vector3<f64>)],
     cfg: &HoverConfig,
+    bar: Option<&Reach>,
 ) -> Result<Option<Reach>> {
-    let max_step = cfg.max_joint_step_rad;
+    let (n, limit) = (targets.len(), cfg.max_thrust_utilisation);
     let t_base_world = (t_world_body * arm.t_body_base).inverse();
     let Some((first, _)) = targets.first() else {
         return Ok(None);
     };
-    let load = |(t, f): &(Isometry3<f64>, Vector3<f64>)| {
-        utilisation(thrusters, t_world_body, &t.translation.vector, f)
-    };
     let starts = arm.ik(&(t_base_world * first), &JointVector::zeros())?;
+    if starts.is_empty() {
+        return Ok(None);
+    }
+    // The targets in the base frame and the thrust utilisation of each are the same for every
+    // branch.
+    let in_base: Vec<Isometry3<f64>> = targets.iter().map(|(t, _)| t_base_world * t).collect();
+    let loads: Vec<f64> = targets
+        .iter()
+        .map(|(t, f)| utilisation(thrusters, t_world_body, &t.translation.vector, f))
+        .collect();
     let mut best: Option<Reach> = None;
     for q0 in starts.as_slice() {
         let mut q = *q0;
@@ -192,24 +218,24 @@ fn follow(
             q_start: *q0,
             reached: 1,
             manipulability: arm.jacobian(&q).determinant().abs(),
-            utilisation: load(&targets[0]),
+            utilisation: loads[0],
         };
-        for target in &targets[1..] {
-            let Some(next) = arm.ik(&(t_base_world * target.0), &q)?.nearest().copied() else {
+        for i in 1..n {
+            if !r.can_beat(bar, n, limit) {
+                break;
+            }
+            let Some(next) = arm.ik_nearest(&in_base[i], &q)? else {
                 break;
             };
-            if (next - q).amax() > max_step {
+            if (next - q).amax() > cfg.max_joint_step_rad {
                 break;
             }
             q = next;
             r.manipulability = r.manipulability.min(arm.jacobian(&q).determinant().abs());
-            r.utilisation = r.utilisation.max(load(target));
+            r.utilisation = r.utilisation.max(loads[i]);
             r.reached += 1;
         }
-        if best
-            .as_ref()
-            .is_none_or(|b| r.beats(b, cfg.max_thrust_utilisation))
-        {
+        if best.as_ref().is_none_or(|b| r.beats(b, limit)) {
             best = Some(r);
         }
     }
@@ -261,7 +287,8 @@ pub fn choose(arm: &Arm, thrusters: &Thrusters, trajectory: &Trajectory, cfg: &H
     let mut best: Option<(Isometry3<f64>, Reach)> = None;
     let mut consider = |pose: Isometry3<f64>, best: &mut Option<(Isometry3<f64>, Reach)>| -> Result<()> {
         evaluated += 1;
-        if let Some(r) = follow(arm, thrusters, &pose, &targets, cfg)?
+        let bar = best.as_ref().map(|(_, r)| r);
+        if let Some(r) = follow(arm, thrusters, &pose, &targets, cfg, bar)?
             && best
                 .as_ref()
                 .is_none_or(|(_, b)| r.beats(b, cfg.max_thrust_utilisation))

@@ -613,8 +613,8 @@ fn held_station(hover: &Hover, specific_force: Vector3<f64>) -> sensors::Measure
 
 /// The true tool pose at `s` and the contact there.
 fn touch(contact: &Contact, system: &Multibody, s: &State) -> (Isometry3<f64>, contact::ContactState) {
-    let t_world_tool = system.t_world_tool(s);
-    let v = system.tool_velocity_world(s).fixed_rows::<3>(0).into_owned();
+    let (t_world_tool, v) = system.tool_pose_velocity_world(s);
+    let v = v.fixed_rows::<3>(0).into_owned();
     let state = contact.evaluate(&t_world_tool.translation.vector.into(), &v);
     (t_world_tool, state)
 }

@@ -114,11 +114,7 @@ impl Thrusters {
     pub fn allocate(&self, tau: &Vector6<f64>) -> Allocation {
         let t = &self.b_pinv * DVector::from_column_slice(tau.as_slice());
         let residual = (&self.b * &t - DVector::from_column_slice(tau.as_slice())).norm();
-        let ratio = t
-            .iter()
-            .zip(&self.max_thrust)
-            .map(|(ti, m)| ti.abs() / m)
-            .fold(0.0, f64::max);
+        let ratio = self.ratio(t.iter().copied());
         let scale = if ratio > 1.0 { 1.0 / ratio } else { 1.0 };
         Allocation {
             thrusts: t.iter().map(|x| x * scale).collect(),
@@ -127,6 +123,24 @@ impl Thrusters {
             residual,
             utilisation: ratio,
         }
+    }
+
+    /// The [`Allocation::utilisation`] of `tau` alone, without allocating.
+    pub fn utilisation(&self, tau: &Vector6<f64>) -> f64 {
+        self.ratio((0..self.len()).map(|j| {
+            let mut t = 0.0;
+            for (i, x) in tau.iter().enumerate() {
+                t += self.b_pinv[(j, i)] * x;
+            }
+            t
+        }))
+    }
+
+    /// The largest `|T_j|/T_max,j` of the thrusts `t`.
+    fn ratio(&self, t: impl Iterator<Item = f64>) -> f64 {
+        t.zip(&self.max_thrust)
+            .map(|(ti, m)| ti.abs() / m)
+            .fold(0.0, f64::max)
     }
 
     /// Advances the rotors by `dt` (s) with the thrust commands `cmd` (N) held.
@@ -241,6 +255,9 @@ mod tests {
         );
         let got = &b * DVector::from_vec(a.thrusts.clone());
         assert!((got - DVector::from_column_slice((big * a.scale).as_slice())).norm() < 1e-9);
+        for tau in [small, big] {
+            assert_eq!(th.utilisation(&tau), th.allocate(&tau).utilisation);
+        }
     }
 
     #[test]
