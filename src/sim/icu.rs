@@ -64,10 +64,102 @@ pub enum ForceMethod {
 pub enum Acceleration {
     /// The measured ones: the encoder rates' filtered derivative, with the torque sensors'
     /// readings through the same filter so that the inertial moments line up.
-    #[default]
     Measured,
     /// The ones the joint controllers commanded.
     Commanded,
+    /// The drives' own equation, `I_a q̈ = τ − M_dz − friction(q̇)` (the rotor inertias, the
+    /// commanded drive torque, the torque sensors, the drives' friction — all of the
+    /// controller's model), corrected by a rate observer on the tachometers ([`RateObserver`]):
+    /// a step of the external moment reaches `q̈` and `M_dz` within the period, and nothing
+    /// is differentiated.
+    #[default]
+    Observer,
+}
+
+/// What the ICU knows of the drives at a measurement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Drive {
+    /// The joint accelerations the joint controllers commanded, rad/s².
+    pub commanded: JointVector,
+    /// The drive torques commanded in the period the measurements describe (before the plant
+    /// clips them to the torque limits), N·m; `None` before the first.
+    pub torque: Option<JointVector>,
+}
+
+/// A per-joint observer of the joint rate `v` and of the acceleration `b` the drive model does
+/// not explain. The drive's equation `I_a v̇ = w − F(v) + I_a b`, with `w = τ − M_dz` (the
+/// drive torque commanded for the period the measurement opens, clipped to the torque limit,
+/// minus the torque sensor) and `F` the drives' friction, predicts the rate by a backward-Euler
+/// step from the last estimate (the smoothed Coulomb friction makes the equation stiff near
+/// rest: `dt F′/I_a` exceeds 1), `v⁻ = v + dt ((w − F(v⁻))/I_a + b)`; the acceleration is
+/// `(v⁻ − v)/dt`. The tachometer corrects: `v = v⁻ + l₁ e`, `b += l₂ e` with `e` the measured
+/// rate minus `v⁻` and `l₁ = 1 − p²`, `l₂ = (1 − p)²/dt` (both poles of the error dynamics at
+/// `p = exp(−2π hz dt)`). A step of the external moment reaches the acceleration at once
+/// (through `M_dz`), and nothing is differentiated.
+#[derive(Debug, Clone, Default)]
+pub struct RateObserver {
+    /// The rate and the unexplained acceleration.
+    state: Option<(JointVector, JointVector)>,
+}
+
+impl RateObserver {
+    /// The joint accelerations and rates at the measurement: the rates `qd`, the torque
+    /// sensors `m_dz` and the drive torques `torque` (`None`: not known yet, the rates are
+    /// taken as the state and the acceleration as zero), with `arm` the controller's model and
+    /// `hz` the observer's bandwidth.
+    pub fn update(
+        &mut self,
+        arm: &Arm,
+        qd: &JointVector,
+        m_dz: &JointVector,
+        torque: Option<&JointVector>,
+        hz: f64,
+        dt: f64,
+    ) -> (JointVector, JointVector) {
+        let Some(torque) = torque else {
+            self.state = Some((*qd, JointVector::zeros()));
+            return (JointVector::zeros(), *qd);
+        };
+        let (v, b) = self.state.get_or_insert((*qd, JointVector::zeros()));
+        let eps = arm.coulomb_smoothing;
+        let mut acc = JointVector::zeros();
+        let mut prior = *v;
+        for i in 0..6 {
+            let l = &arm.links[i];
+            let lim = l.torque_limit;
+            let w = torque[i].clamp(-lim, lim) - m_dz[i];
+            if l.armature <= 0.0 {
+                // No drive model: the tachometers alone.
+                continue;
+            }
+            // Newton on g(x) = x − v − dt((w − F(x))/I_a + b), g′ = 1 + dt F′(x)/I_a ≥ 1.
+            let friction = |x: f64| {
+                let tc = if x > 0.0 {
+                    l.coulomb[0]
+                } else if x < 0.0 {
+                    l.coulomb[1]
+                } else {
+                    0.0
+                };
+                let th = if eps > 0.0 { (x / eps).tanh() } else { x.signum() };
+                let slope = if eps > 0.0 { tc.abs() / eps * (1.0 - th * th) } else { 0.0 };
+                (l.viscous * x + tc * th.abs(), l.viscous + slope)
+            };
+            let mut x = v[i];
+            for _ in 0..6 {
+                let (f, df) = friction(x);
+                let g = x - v[i] - dt * ((w - f) / l.armature + b[i]);
+                x -= g / (1.0 + dt * df / l.armature);
+            }
+            prior[i] = x;
+            acc[i] = (x - v[i]) / dt;
+        }
+        let p = (-2.0 * std::f64::consts::PI * hz * dt).exp();
+        let e = qd - prior;
+        *v = prior + e * (1.0 - p * p);
+        *b += e * ((1.0 - p).powi(2) / dt);
+        (acc, *v)
+    }
 }
 
 /// ICU parameters (`[sim.icu]`).
@@ -80,8 +172,8 @@ pub struct IcuConfig {
     pub singular_angle_rad: f64,
     /// The joint accelerations of the IDP.
     pub acceleration: Acceleration,
-    /// Cut-off of each stage of the filter on the rates' derivative and on `M_dz`
-    /// (`acceleration = "measured"`), Hz.
+    /// Cut-off of each stage of the filter on the rates' derivative and on `M_dz`, and on the
+    /// vehicle's rates and specific force (`acceleration = "measured"` or `"commanded"`), Hz.
     pub filter_hz: f64,
     /// Number of identical first-order stages of that filter (1 or 2). One stage passes the
     /// derivative's noise flat up to the sampling limit (`|H(ω)| → 2π filter_hz` for large
@@ -93,6 +185,17 @@ pub struct IcuConfig {
     /// sees the base at constant velocity and the base's inertial moments, which the torque
     /// sensors do read, stay in `M_ez`.
     pub base_acceleration: bool,
+    /// Cut-off of each stage of the filter on the vehicle's rates and specific force
+    /// (`acceleration = "observer"`: the base acceleration of the IDP), Hz. The gyro rates'
+    /// derivative is the noisiest input of the IDP (1 mrad/s on a vehicle arm's inertia).
+    pub base_filter_hz: f64,
+    /// Bandwidth of the rate observer (`acceleration = "observer"`), Hz.
+    pub observer_hz: f64,
+    /// Cut-off of a first-order low-pass on `M_ez` (`acceleration = "observer"`), Hz (0: none).
+    pub output_hz: f64,
+    /// A joint's low-passed `M_ez` jumps to the unfiltered value when they differ by more
+    /// than this, N·m (0: never), so that a step of the external moment passes at once.
+    pub output_jump_nm: f64,
     /// Time constant of the zeroing of `M_ez` in free space, s (0: no zeroing).
     pub tare_s: f64,
     /// The zeroing stops for good once the identified force exceeds this, N.
@@ -111,10 +214,14 @@ impl Default for IcuConfig {
         IcuConfig {
             method: ForceMethod::LeastSquares,
             singular_angle_rad: 0.05,
-            acceleration: Acceleration::Measured,
+            acceleration: Acceleration::Observer,
             filter_hz: 30.0,
             filter_stages: 2,
             base_acceleration: true,
+            base_filter_hz: 10.0,
+            observer_hz: 5.0,
+            output_hz: 60.0,
+            output_jump_nm: 2.0,
             tare_s: 1.0,
             tare_until_n: 5.0,
             touch_filter_s: 0.05,
@@ -141,6 +248,10 @@ impl IcuConfig {
             ));
         }
         positive("sim.icu.filter_hz", self.filter_hz)?;
+        positive("sim.icu.base_filter_hz", self.base_filter_hz)?;
+        positive("sim.icu.observer_hz", self.observer_hz)?;
+        non_negative("sim.icu.output_hz", self.output_hz)?;
+        non_negative("sim.icu.output_jump_nm", self.output_jump_nm)?;
         if !(1..=2).contains(&self.filter_stages) {
             return Err(crate::error::Error::input(
                 "sim.icu.filter_stages",
@@ -206,6 +317,10 @@ pub struct Icu {
     cfg: IcuConfig,
     /// The filter of the measured signals (built at the first measurement).
     filter: Option<LowPass<18>>,
+    /// The rate observer (`acceleration = "observer"`).
+    observer: RateObserver,
+    /// The low-pass on `M_ez` (`acceleration = "observer"`, `output_hz > 0`).
+    output: Option<(JointVector, JointVector)>,
     /// The free-space offset of `M_ez`, N·m.
     offset: JointVector,
     /// The offset of the last instant the force was quiet (below `tare_quiet_n`), N·m.
@@ -222,6 +337,8 @@ impl Icu {
         Icu {
             cfg: *cfg,
             filter: None,
+            observer: RateObserver::default(),
+            output: None,
             offset: JointVector::zeros(),
             quiet_offset: JointVector::zeros(),
             touched: false,
@@ -230,14 +347,14 @@ impl Icu {
     }
 
     /// Eq. (1)–(12) for the measurements `m` of a control period `dt`, with `arm` the
-    /// controller's model, `commanded` the joint accelerations commanded when the measurements
-    /// were taken, `base` the base motion it believes and `approach` whether the trajectory is
+    /// controller's model, `drive` the joint accelerations and drive torques commanded when the
+    /// measurements were taken, `base` the base motion it believes and `approach` whether the trajectory is
     /// in its approach (the offset is learnt then, until the touch).
     pub fn identify(
         &mut self,
         arm: &Arm,
         m: &Measurements,
-        commanded: &JointVector,
+        drive: &Drive,
         base: &BaseMotion,
         approach: bool,
         dt: f64,
@@ -251,14 +368,32 @@ impl Icu {
         x.fixed_rows_mut::<3>(15).copy_from(&m.specific_force);
         let (y, dy) = self
             .filter
-            .get_or_insert_with(|| LowPass::new(cfg.filter_hz, cfg.filter_stages, dt))
+            .get_or_insert_with(|| {
+                let hz = if cfg.acceleration == Acceleration::Observer {
+                    cfg.base_filter_hz
+                } else {
+                    cfg.filter_hz
+                };
+                LowPass::new(hz, cfg.filter_stages, dt)
+            })
             .update(&x);
         let (qdd, m_dz) = match cfg.acceleration {
-            Acceleration::Commanded => (*commanded, m.m_dz),
+            Acceleration::Commanded => (drive.commanded, m.m_dz),
             Acceleration::Measured => (dy.fixed_rows::<6>(0) / dt, y.fixed_rows::<6>(9).into_owned()),
+            Acceleration::Observer => {
+                let (qdd, _) = self.observer.update(
+                    arm,
+                    &m.qd,
+                    &m.m_dz,
+                    drive.torque.as_ref(),
+                    cfg.observer_hz,
+                    dt,
+                );
+                (qdd, m.m_dz)
+            }
         };
         let mut base = *base;
-        if cfg.base_acceleration && cfg.acceleration == Acceleration::Measured {
+        if cfg.base_acceleration && cfg.acceleration != Acceleration::Commanded {
             // `ν̇` in `C` axes: `v̇ = f + g − ω × v` (`ω × v` left out: the ICU has no `v`),
             // `ω̇` the gyros' filtered derivative.
             let g_body = arm.mount.rot.transpose() * base.gravity;
@@ -268,7 +403,21 @@ impl Icu {
             base.acceleration = arm.mount.motion(&Motion::from_vector6(&nu_dot));
         }
         let m_wz = arm.inverse_dynamics(&m.q, &m.qd, &qdd, &base, None).tau_rigid;
-        let raw = m_dz - m_wz;
+        let mut raw = m_dz - m_wz;
+        if cfg.acceleration == Acceleration::Observer && cfg.output_hz > 0.0 {
+            let k = lag_gain_hz(dt, cfg.output_hz);
+            let (y, last) = self.output.get_or_insert((raw, JointVector::zeros()));
+            let jump = cfg.output_jump_nm;
+            for i in 0..6 {
+                let d = raw[i] - y[i];
+                // Not when the last reading was beyond the threshold on the other side: an
+                // alternation at the sampling rate is no step.
+                let step = jump > 0.0 && d.abs() > jump && d * last[i] > -jump * jump;
+                last[i] = d;
+                y[i] = if step { raw[i] } else { y[i] + k * d };
+            }
+            raw = *y;
+        }
         if first && approach && cfg.tare_s > 0.0 {
             // The zeroing starts from the first reading (the arm at rest at the station).
             self.offset = raw;
@@ -431,6 +580,10 @@ mod tests {
             position_time: 0.0,
         };
         let dt = 1e-3;
+        let drive = Drive {
+            commanded: zero,
+            torque: None,
+        };
         for (tare_s, free_space_left) in [(1.0, 0.0), (0.0, 1.0)] {
             let mut icu = Icu::new(&IcuConfig {
                 tare_s,
@@ -438,13 +591,13 @@ mod tests {
             });
             let mut id = None;
             for _ in 0..8000 {
-                id = Some(icu.identify(&arm, &meas(m_wz + b), &zero, &base, true, dt));
+                id = Some(icu.identify(&arm, &meas(m_wz + b), &drive, &base, true, dt));
             }
             let free = id.unwrap().m_ez;
             assert!((free - b * free_space_left).amax() < 1e-3 * b.amax(), "{free}");
             // The touch and the contact phase: the offset no longer moves.
             for _ in 0..3000 {
-                id = Some(icu.identify(&arm, &meas(m_wz + b + contact), &zero, &base, false, dt));
+                id = Some(icu.identify(&arm, &meas(m_wz + b + contact), &drive, &base, false, dt));
             }
             let loaded = id.unwrap();
             let expect = contact + b * free_space_left;
