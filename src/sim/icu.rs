@@ -235,7 +235,7 @@ impl Default for IcuConfig {
             filter_stages: 2,
             base_acceleration: true,
             base_filter_hz: 10.0,
-            observer_hz: 5.0,
+            observer_hz: 20.0,
             output_hz: 60.0,
             output_jump_nm: 2.0,
             tare_s: 1.0,
