@@ -9,6 +9,7 @@
 //! `τ = RNEA(q, q̇, a) + G²Jm a + friction(q̇_ref) + M̂_ez`,
 //! all with the controller's model; the plant clips `τ` to the drives' torque limits.
 
+use super::icu::Drive;
 use crate::arm::dynamics::BaseMotion;
 use crate::arm::{Arm, JointVector};
 use crate::config::positive;
@@ -70,6 +71,9 @@ pub struct JointControl {
     m_ez: JointVector,
     /// The joint accelerations commanded last (the computed-torque loop's `a`), rad/s².
     pub commanded: JointVector,
+    /// The drive torques commanded last (before the plant's clipping), N·m; `None` before the
+    /// first.
+    pub torque: Option<JointVector>,
 }
 
 impl JointControl {
@@ -82,6 +86,15 @@ impl JointControl {
             qdd_ref: JointVector::zeros(),
             m_ez: JointVector::zeros(),
             commanded: JointVector::zeros(),
+            torque: None,
+        }
+    }
+
+    /// What the ICU knows of the drives: the last commanded accelerations and torques.
+    pub fn drive(&self) -> Drive {
+        Drive {
+            commanded: self.commanded,
+            torque: self.torque,
         }
     }
 
@@ -119,6 +132,7 @@ impl JointControl {
             self.m_ez += (m_ez - self.m_ez) * k;
             tau += self.m_ez;
         }
+        self.torque = Some(tau);
         tau
     }
 }

@@ -446,7 +446,7 @@ pub fn simulate(
         // ICU (the commanded accelerations are its fallback, `[sim.icu] acceleration`), zeroed
         // in the approach until the touch.
         let approach = s.phase == Phase::Approach;
-        let id = icu.identify(arm, &meas, &joints.commanded, &base, approach, dt);
+        let id = icu.identify(arm, &meas, &joints.drive(), &base, approach, dt);
         let r_w0 = meas.attitude * arm.t_body_base.rotation;
         let f_imp_est = r_w0 * id.f_imp_base;
         // FCU.
