@@ -82,6 +82,9 @@ pub struct ModelMismatch {
     pub link_hydro_scale: f64,
     /// Factor on the vehicle's damping.
     pub vehicle_damping_scale: f64,
+    /// Factor on the drives' viscous and Coulomb friction (the ICU's drive equation and the
+    /// joint control use it).
+    pub drive_friction_scale: f64,
 }
 
 impl Default for ModelMismatch {
@@ -90,6 +93,7 @@ impl Default for ModelMismatch {
             link_mass_scale: 1.02,
             link_hydro_scale: 0.8,
             vehicle_damping_scale: 0.8,
+            drive_friction_scale: 1.0,
         }
     }
 }
@@ -100,6 +104,8 @@ impl ModelMismatch {
         let mut m = plant.clone();
         for link in &mut m.arm.links {
             link.mass *= self.link_mass_scale;
+            link.viscous_friction *= self.drive_friction_scale;
+            link.coulomb_friction = link.coulomb_friction.map(|c| c * self.drive_friction_scale);
             for row in &mut link.inertia {
                 for v in row {
                     *v *= self.link_mass_scale;
@@ -133,6 +139,10 @@ impl ModelMismatch {
         non_negative(
             "sim.controller_model.vehicle_damping_scale",
             self.vehicle_damping_scale,
+        )?;
+        non_negative(
+            "sim.controller_model.drive_friction_scale",
+            self.drive_friction_scale,
         )
     }
 }
@@ -680,4 +690,31 @@ fn check_runaway(s: &State, hover: &Isometry3<f64>, t: f64) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_controllers_model_scales_the_drive_friction_and_forgets_the_current() {
+        let mut plant = UvmsModel::default();
+        plant.environment.current = [0.3, 0.0, 0.0];
+        let m = ModelMismatch {
+            drive_friction_scale: 0.5,
+            ..ModelMismatch::default()
+        };
+        let c = m.apply(&plant);
+        for (a, b) in c.arm.links.iter().zip(&plant.arm.links) {
+            assert_eq!(a.viscous_friction, 0.5 * b.viscous_friction);
+            assert_eq!(a.coulomb_friction, b.coulomb_friction.map(|v| 0.5 * v));
+            assert_eq!(a.mass, m.link_mass_scale * b.mass);
+        }
+        assert_eq!(c.environment.current, [0.0; 3]);
+        let bad = ModelMismatch {
+            drive_friction_scale: -1.0,
+            ..ModelMismatch::default()
+        };
+        assert!(bad.validate().is_err());
+    }
 }

@@ -39,7 +39,7 @@ pub fn set_point(
     t_base_tool: &Isometry3<f64>,
     q_prev: &JointVector,
 ) -> Result<Option<JointVector>> {
-    Ok(arm.ik(t_base_tool, q_prev)?.nearest().copied())
+    arm.ik_nearest(t_base_tool, q_prev)
 }
 
 #[cfg(test)]
