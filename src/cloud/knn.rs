@@ -457,7 +457,7 @@ fn cell_edge(points: &[Point3<f64>], k: usize, diag: f64) -> Result<f64> {
     let subset: Vec<Point3<f64>> = points
         .iter()
         .enumerate()
-        .filter(|&(i, _)| ((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) % s as u64 == 0)
+        .filter(|&(i, _)| ((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32).is_multiple_of(s as u64))
         .map(|(_, p)| *p)
         .collect();
     let m = k.div_ceil(s).min(subset.len().saturating_sub(1)).max(1);
