@@ -63,6 +63,19 @@ impl Link {
             pos: Vector3::new(self.dh.a * c, self.dh.a * s, self.dh.d),
         }
     }
+
+    /// The Coulomb friction level for the direction of the joint rate `qd`, link side: `Tc[0]`
+    /// for q̇ > 0, `Tc[1]` for q̇ < 0, 0 at rest (the Robotics Toolbox's rule).
+    #[inline]
+    pub fn coulomb_at(&self, qd: f64) -> f64 {
+        if qd > 0.0 {
+            self.coulomb[0]
+        } else if qd < 0.0 {
+            self.coulomb[1]
+        } else {
+            0.0
+        }
+    }
 }
 
 /// The arm built from its model: kinematics, drives and link bodies.
@@ -121,13 +134,7 @@ impl Arm {
         JointVector::from_fn(|i, _| {
             let l = &self.links[i];
             let v = qd[i];
-            let tc = if v > 0.0 {
-                l.coulomb[0]
-            } else if v < 0.0 {
-                l.coulomb[1]
-            } else {
-                0.0
-            };
+            let tc = l.coulomb_at(v);
             let scale = smoothing.map_or(1.0, |eps| (v / eps).tanh().abs());
             l.viscous * v + tc * scale
         })

@@ -146,13 +146,7 @@ impl RateObserver {
             }
             // Newton on g(x) = x − v − dt((w − F(x))/I_a + b), g′ = 1 + dt F′(x)/I_a ≥ 1.
             let friction = |x: f64| {
-                let tc = if x > 0.0 {
-                    l.coulomb[0]
-                } else if x < 0.0 {
-                    l.coulomb[1]
-                } else {
-                    0.0
-                };
+                let tc = l.coulomb_at(x);
                 let th = if eps > 0.0 { (x / eps).tanh() } else { x.signum() };
                 let slope = if eps > 0.0 {
                     tc.abs() / eps * (1.0 - th * th)
