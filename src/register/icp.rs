@@ -190,7 +190,7 @@ pub struct IcpOutcome {
 }
 
 /// Points per chunk of the parallel reductions.
-const CHUNK: usize = 512;
+const CHUNK: usize = 128;
 
 /// One pair, in the target frame: the moved source-side point `x`, the unit normal `n` the
 /// residual is measured along, the point-to-point distance and the plane residual.
