@@ -70,7 +70,7 @@ impl Arm {
     /// [`Error::Input`] if the arm's DH table is not of the PUMA class (see the module docs) or
     /// the pose is not finite. An unreachable pose is not an error: the result is empty.
     pub fn ik(&self, t_base_tool: &Isometry3<f64>, q_now: &JointVector) -> Result<IkSolutions> {
-        self.solve_ik(t_base_tool, q_now, 8)
+        self.solve_ik(t_base_tool, q_now, false)
     }
 
     /// The inverse-kinematics solution nearest to `q_now` within the joint limits (what
@@ -83,18 +83,18 @@ impl Arm {
         t_base_tool: &Isometry3<f64>,
         q_now: &JointVector,
     ) -> Result<Option<JointVector>> {
-        Ok(self.solve_ik(t_base_tool, q_now, 1)?.nearest().copied())
+        Ok(self.solve_ik(t_base_tool, q_now, true)?.nearest().copied())
     }
 
-    /// The `wanted` solutions nearest to `q_now`: every analytic solution moved into the limits,
-    /// sorted by distance (stable), and checked by forward kinematics in that order until
-    /// `wanted` pass. For `wanted = 1` the search is pruned (see below) and `analytic` counts
-    /// only the solutions looked at.
+    /// The solutions, nearest to `q_now` first: every analytic solution moved into the limits,
+    /// sorted by distance (stable), and checked by forward kinematics. With `nearest_only` the
+    /// search is pruned (see below), the result is the nearest alone and `analytic` counts only
+    /// the solutions looked at.
     fn solve_ik(
         &self,
         t_base_tool: &Isometry3<f64>,
         q_now: &JointVector,
-        wanted: usize,
+        nearest_only: bool,
     ) -> Result<IkSolutions> {
         self.check_puma_structure()?;
         if !t_base_tool.to_homogeneous().iter().all(|v| v.is_finite()) || !q_now.iter().all(|v| v.is_finite())
@@ -150,7 +150,6 @@ impl Arm {
                 n_pairs += 1;
             }
         }
-        let nearest_only = wanted == 1;
         // For the nearest alone, the pairs nearest to `q_now` in q1..q3 first, and a pair whose
         // q1..q3 alone are already farther than the best checked solution is skipped (the
         // margin covers the summation's round-off; ties keep the analytic order).
@@ -242,9 +241,6 @@ impl Arm {
         let found = out.solutions;
         out.len = 0;
         for &i in &by_distance[..candidates] {
-            if out.len == wanted {
-                break;
-            }
             let (pair, wrist) = &wrist_of[i];
             let (r03, p03) = &frame3[*pair];
             if self.wrist_matches(r03, p03, wrist, t_base_tool) {

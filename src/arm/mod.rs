@@ -64,16 +64,27 @@ impl Link {
         }
     }
 
-    /// The Coulomb friction level for the direction of the joint rate `qd`, link side: `Tc[0]`
-    /// for q̇ > 0, `Tc[1]` for q̇ < 0, 0 at rest (the Robotics Toolbox's rule).
+    /// The joint's friction on the link side at the rate `qd` (see [`Arm::friction`]) and its
+    /// slope `d/dq̇` (the smoothed Coulomb part's with `smoothing`, none without).
     #[inline]
-    pub fn coulomb_at(&self, qd: f64) -> f64 {
-        if qd > 0.0 {
+    pub fn friction(&self, qd: f64, smoothing: Option<f64>) -> (f64, f64) {
+        // The Coulomb level for the direction of q̇: the Robotics Toolbox's rule.
+        let tc = if qd > 0.0 {
             self.coulomb[0]
         } else if qd < 0.0 {
             self.coulomb[1]
         } else {
             0.0
+        };
+        match smoothing {
+            Some(eps) => {
+                let th = (qd / eps).tanh();
+                (
+                    self.viscous * qd + tc * th.abs(),
+                    self.viscous + tc.abs() / eps * (1.0 - th * th),
+                )
+            }
+            None => (self.viscous * qd + tc, self.viscous),
         }
     }
 }
@@ -131,13 +142,7 @@ impl Arm {
     /// (`Tc_sel = Tc[0]` for q̇ > 0, `Tc[1]` for q̇ < 0, 0 at rest); with `Some(ε)` the Coulomb
     /// part is `Tc_sel · |tanh(q̇/ε)|`, continuous for an ODE solver.
     pub fn friction(&self, qd: &JointVector, smoothing: Option<f64>) -> JointVector {
-        JointVector::from_fn(|i, _| {
-            let l = &self.links[i];
-            let v = qd[i];
-            let tc = l.coulomb_at(v);
-            let scale = smoothing.map_or(1.0, |eps| (v / eps).tanh().abs());
-            l.viscous * v + tc * scale
-        })
+        JointVector::from_fn(|i, _| self.links[i].friction(qd[i], smoothing).0)
     }
 
     /// The gravity vector in the base frame when the vehicle is level (NED gravity `g` m/s²

@@ -140,6 +140,22 @@ impl Reach {
         };
         key(self).partial_cmp(&key(other)) == Some(std::cmp::Ordering::Greater)
     }
+
+    /// Whether a branch at `self` (going on to all `n` samples) could still beat `bar`: its
+    /// manipulability only falls and its utilisation only grows as it goes on, so once it
+    /// cannot beat a `bar` that reached every sample, following it further changes nothing.
+    fn can_beat(&self, bar: Option<&Reach>, n: usize, limit: f64) -> bool {
+        match bar {
+            Some(b) if b.reached == n => {
+                if b.utilisation <= limit {
+                    self.utilisation <= limit && self.manipulability > b.manipulability
+                } else {
+                    self.utilisation < b.utilisation
+                }
+            }
+            _ => true,
+        }
+    }
 }
 
 /// The vehicle pose at `position`, level, heading `yaw`.
@@ -164,24 +180,6 @@ fn utilisation(
     tau.fixed_rows_mut::<3>(0).copy_from(&-f);
     tau.fixed_rows_mut::<3>(3).copy_from(&-p.cross(&f));
     thrusters.utilisation(&tau)
-}
-
-impl Reach {
-    /// Whether a branch at `self` (going on to all `n` samples) could still beat `bar`: its
-    /// manipulability only falls and its utilisation only grows as it goes on, so once it
-    /// cannot beat a `bar` that reached every sample, following it further changes nothing.
-    fn can_beat(&self, bar: Option<&Reach>, n: usize, limit: f64) -> bool {
-        match bar {
-            Some(b) if b.reached == n => {
-                if b.utilisation <= limit {
-                    self.utilisation <= limit && self.manipulability > b.manipulability
-                } else {
-                    self.utilisation < b.utilisation
-                }
-            }
-            _ => true,
-        }
-    }
 }
 
 /// Follows each IK branch of the first target along `targets` (world tool poses, with the

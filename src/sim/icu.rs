@@ -145,19 +145,9 @@ impl RateObserver {
                 continue;
             }
             // Newton on g(x) = x − v − dt((w − F(x))/I_a + b), g′ = 1 + dt F′(x)/I_a ≥ 1.
-            let friction = |x: f64| {
-                let tc = l.coulomb_at(x);
-                let th = if eps > 0.0 { (x / eps).tanh() } else { x.signum() };
-                let slope = if eps > 0.0 {
-                    tc.abs() / eps * (1.0 - th * th)
-                } else {
-                    0.0
-                };
-                (l.viscous * x + tc * th.abs(), l.viscous + slope)
-            };
             let mut x = v[i];
             for _ in 0..6 {
-                let (f, df) = friction(x);
+                let (f, df) = l.friction(x, Some(eps));
                 let g = x - v[i] - dt * ((w - f) / l.armature + b[i]);
                 x -= g / (1.0 + dt * df / l.armature);
             }

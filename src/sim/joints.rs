@@ -73,7 +73,7 @@ pub struct JointControl {
     pub commanded: JointVector,
     /// The drive torques commanded last (before the plant's clipping), N·m; `None` before the
     /// first.
-    pub torque: Option<JointVector>,
+    last_torque: Option<JointVector>,
 }
 
 impl JointControl {
@@ -86,7 +86,7 @@ impl JointControl {
             qdd_ref: JointVector::zeros(),
             m_ez: JointVector::zeros(),
             commanded: JointVector::zeros(),
-            torque: None,
+            last_torque: None,
         }
     }
 
@@ -94,7 +94,7 @@ impl JointControl {
     pub fn drive(&self) -> Drive {
         Drive {
             commanded: self.commanded,
-            torque: self.torque,
+            torque: self.last_torque,
         }
     }
 
@@ -132,7 +132,7 @@ impl JointControl {
             self.m_ez += (m_ez - self.m_ez) * k;
             tau += self.m_ez;
         }
-        self.torque = Some(tau);
+        self.last_torque = Some(tau);
         tau
     }
 }
