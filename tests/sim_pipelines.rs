@@ -89,8 +89,14 @@ fn bottle_cleaning_end_to_end() {
     assert_eq!(sim["contact_lost_s"].as_f64().unwrap(), 0.0);
     let mean = sim["force_settled_mean_n"].as_f64().unwrap();
     assert!((mean - 60.0).abs() <= 1.0, "settled mean {mean} N");
+    // The step response's peak and the run's largest force (the settled force's fluctuation
+    // under the vision noise too) within the seed's 85 N.
+    let overshoot = sim["force_overshoot_n"].as_f64().unwrap();
     let max = sim["force_max_n"].as_f64().unwrap();
-    assert!(max <= 85.0, "overshoot {max} N");
+    assert!(
+        overshoot <= max && max <= 85.0,
+        "overshoot {overshoot} N, largest {max} N"
+    );
     let e = sim["tool_deviation_max_m"].as_f64().unwrap();
     assert!(e <= 0.006, "‖e‖ {e} m");
     let r = sim["auv_deviation_max_m"].as_f64().unwrap();

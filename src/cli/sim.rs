@@ -78,11 +78,12 @@ pub fn sim_text(s: &SimSummary) -> String {
     let f = |v: Option<f64>| v.map_or("never".to_string(), |v| format!("{v:.2} s"));
     let _ = writeln!(
         t,
-        "  force      setpoint {:.1} N, settled mean {:.2} N (min {:.2}, RMS error {:.2}), max {:.2} N",
+        "  force      setpoint {:.1} N, settled mean {:.2} N (min {:.2}, RMS error {:.2}), overshoot {:.2} N, max {:.2} N",
         s.figures.force_setpoint_n,
         s.figures.force_settled_mean_n,
         s.figures.force_settled_min_n,
         s.figures.force_rms_error_n,
+        s.figures.force_overshoot_n,
         s.figures.force_max_n
     );
     let _ = writeln!(

@@ -177,6 +177,10 @@ pub struct Figures {
     pub force_settled_mean_n: f64,
     /// Largest true force along `k`, N.
     pub force_max_n: f64,
+    /// Largest true force along `k` in the transient, from the first contact until
+    /// `settle_time_s` after it: the overshoot of the force's step response, N (`force_max_n`
+    /// also holds the peaks of the settled force's fluctuation).
+    pub force_overshoot_n: f64,
     /// Largest magnitude of the true contact force (normal and tangential), N.
     pub contact_force_max_n: f64,
     /// RMS of the true force's error along `k` in the contact phase once settled, N.
@@ -209,6 +213,7 @@ pub struct Recorder {
     settle_time: f64,
     first_contact: Option<f64>,
     force_max: f64,
+    overshoot: f64,
     contact_force_max: f64,
     settled: (f64, f64, usize, f64),
     force_id_error: f64,
@@ -231,6 +236,7 @@ impl Recorder {
             settle_time,
             first_contact: None,
             force_max: 0.0,
+            overshoot: 0.0,
             contact_force_max: 0.0,
             settled: (0.0, 0.0, 0, f64::INFINITY),
             force_id_error: 0.0,
@@ -261,6 +267,9 @@ impl Recorder {
             if pressing && !o.in_contact {
                 self.lost += dt;
             }
+            if o.t < t1 + self.settle_time {
+                self.overshoot = self.overshoot.max(o.f_k_true);
+            }
             if o.phase == Phase::Contact && o.t >= t1 + self.settle_time {
                 let e = o.f_k_true - self.setpoint;
                 self.settled.0 += o.f_k_true;
@@ -287,6 +296,7 @@ impl Recorder {
             force_setpoint_n: self.setpoint,
             force_settled_mean_n: if n > 0 { sum / nf } else { f64::NAN },
             force_max_n: self.force_max,
+            force_overshoot_n: self.overshoot,
             contact_force_max_n: self.contact_force_max,
             force_rms_error_n: if n > 0 { (sum2 / nf).sqrt() } else { f64::NAN },
             force_settled_min_n: if n > 0 { min } else { f64::NAN },
