@@ -33,6 +33,10 @@ pub struct TimingConfig {
     pub approach_speed_m_s: f64,
     /// Time to hold the first point before moving, s (0: no dwell).
     pub dwell_s: f64,
+    /// Time over which the force set-point rises linearly from zero to the first point's
+    /// force at the start of the dwell, s (0: a step). A softer touch: the vehicle turns
+    /// under the arm's growing reaction slowly enough for the trajectory correction to follow.
+    pub force_ramp_s: f64,
     /// Speed of the retreat along `-k`, m/s.
     pub retreat_speed_m_s: f64,
 }
@@ -45,6 +49,7 @@ impl Default for TimingConfig {
             standoff_m: 0.05,
             approach_speed_m_s: 0.005,
             dwell_s: 0.0,
+            force_ramp_s: 0.0,
             retreat_speed_m_s: 0.01,
         }
     }
@@ -61,6 +66,13 @@ impl TimingConfig {
         non_negative("timing.standoff_m", self.standoff_m)?;
         positive("timing.approach_speed_m_s", self.approach_speed_m_s)?;
         non_negative("timing.dwell_s", self.dwell_s)?;
+        non_negative("timing.force_ramp_s", self.force_ramp_s)?;
+        if self.force_ramp_s > self.dwell_s {
+            return Err(Error::input(
+                "timing.force_ramp_s",
+                "must not be longer than timing.dwell_s (the force rises while the first point is held)",
+            ));
+        }
         positive("timing.retreat_speed_m_s", self.retreat_speed_m_s)?;
         let period = self.sample_period_s;
         bounded_count(
@@ -284,8 +296,13 @@ pub fn schedule(
     if cfg.dwell_s > 0.0 {
         let n = ((cfg.dwell_s / cfg.sample_period_s).ceil() as usize).max(1);
         let dt = cfg.dwell_s / n as f64;
-        for _ in 0..n {
-            out.push(sample(t, first, q0, first.force, Phase::Dwell));
+        for i in 0..n {
+            let rise = if cfg.force_ramp_s > 0.0 {
+                (i as f64 * dt / cfg.force_ramp_s).min(1.0)
+            } else {
+                1.0
+            };
+            out.push(sample(t, first, q0, first.force * rise, Phase::Dwell));
             t += dt;
         }
         stats.dwell_s = cfg.dwell_s;
@@ -397,5 +414,35 @@ mod tests {
         assert!((last.position - Point3::new(0.1, 0.0, -0.05)).norm() < 1e-12);
         assert!((s.last().unwrap().t - (10.0 + 1.0 + stats.contact_s + 5.0)).abs() < 1e-9);
         assert!(s.windows(2).all(|w| w[1].t > w[0].t));
+    }
+
+    /// The force rises linearly over `force_ramp_s` of the dwell, then holds; a ramp longer
+    /// than the dwell is an input error.
+    #[test]
+    fn force_ramps_up_over_the_dwell() {
+        let cfg = TimingConfig {
+            dwell_s: 1.0,
+            force_ramp_s: 0.5,
+            ..TimingConfig::default()
+        };
+        let (path, h) = resample(&[pp(0.0, 0.0), pp(0.1, 0.0)], cfg.spacing()).unwrap();
+        let q = vec![UnitQuaternion::identity(); path.len()];
+        let (s, _) = schedule(&path, &q, h, &cfg, 1.0);
+        let dwell: Vec<&Sample> = s.iter().filter(|x| x.phase == Phase::Dwell).collect();
+        let t0 = dwell[0].t;
+        for d in &dwell {
+            let expected = 60.0 * ((d.t - t0) / 0.5).min(1.0);
+            assert!((d.force - expected).abs() < 1e-9, "{} at {}", d.force, d.t - t0);
+        }
+        assert!(
+            s.iter()
+                .filter(|x| x.phase == Phase::Contact)
+                .all(|x| x.force == 60.0)
+        );
+        let too_long = TimingConfig {
+            force_ramp_s: 1.5,
+            ..cfg
+        };
+        assert!(too_long.validate().is_err());
     }
 }
