@@ -256,7 +256,7 @@ impl Default for SimConfig {
             surface_frame: SurfaceFrame::Scan,
             control_rate_hz: 1000.0,
             plant_substeps: 1,
-            integrator: Integrator::Rk4,
+            integrator: Integrator::SemiImplicitEuler,
             log_rate_hz: 100.0,
             tail_s: 0.5,
             settle_time_s: 1.5,
