@@ -364,6 +364,13 @@ impl Multibody {
     /// [`Multibody::t_world_tool`] and [`Multibody::tool_velocity_world`] from one forward
     /// kinematics.
     pub fn tool_pose_velocity_world(&self, s: &State) -> (Isometry3<f64>, Vector6<f64>) {
+        let (t, v, _) = self.tool_kinematics(s);
+        (t, v)
+    }
+
+    /// [`Multibody::tool_pose_velocity_world`] and the arm's Jacobian of the tool point at
+    /// `s.q` (base frame, [`Arm::jacobian`]), from one forward kinematics.
+    pub fn tool_kinematics(&self, s: &State) -> (Isometry3<f64>, Vector6<f64>, Matrix6<f64>) {
         let chain = self.arm.chain(&s.q);
         let t_base_tool = chain.t_base_flange() * self.arm.t_flange_tool;
         let t_body_tool = self.arm.t_body_base * t_base_tool;
@@ -371,7 +378,8 @@ impl Multibody {
         let p = t_body_tool.translation.vector;
         let w = Vector3::new(s.nu[3], s.nu[4], s.nu[5]);
         let v_vehicle = Vector3::new(s.nu[0], s.nu[1], s.nu[2]) + w.cross(&p);
-        let j = chain.jacobian_at(&self.arm.t_flange_tool.translation.vector) * s.qd;
+        let jacobian = chain.jacobian_at(&self.arm.t_flange_tool.translation.vector);
+        let j = jacobian * s.qd;
         let r_b0 = self.arm.t_body_base.rotation;
         let v = v_vehicle + r_b0 * Vector3::new(j[0], j[1], j[2]);
         let om = w + r_b0 * Vector3::new(j[3], j[4], j[5]);
@@ -380,6 +388,7 @@ impl Multibody {
         (
             s.t_world_body * self.arm.t_body_base * t_base_tool,
             Vector6::new(v.x, v.y, v.z, om.x, om.y, om.z),
+            jacobian,
         )
     }
 
