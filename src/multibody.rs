@@ -69,7 +69,9 @@ impl State {
 
     /// Whether every number is finite.
     pub fn is_finite(&self) -> bool {
-        self.t_world_body.to_homogeneous().iter().all(|v| v.is_finite())
+        let t = &self.t_world_body;
+        t.translation.vector.iter().all(|v| v.is_finite())
+            && t.rotation.coords.iter().all(|v| v.is_finite())
             && self
                 .nu
                 .iter()

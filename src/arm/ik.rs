@@ -143,8 +143,10 @@ impl Arm {
             }
             let beta0 = cos_beta.clamp(-1.0, 1.0).acos();
             let elevation = pz.atan2(r);
-            for beta in [beta0, -beta0] {
-                let theta2 = elevation - (l3 * beta.sin()).atan2(a2 + l3 * beta.cos());
+            // sin is odd and cos even, exactly so in floating point too.
+            let (sin0, cos0) = beta0.sin_cos();
+            for (beta, sin_beta) in [(beta0, sin0), (-beta0, -sin0)] {
+                let theta2 = elevation - (l3 * sin_beta).atan2(a2 + l3 * cos0);
                 let theta3 = beta - psi;
                 pairs[n_pairs] = [theta1 - off(0), theta2 - off(1), theta3 - off(2)];
                 n_pairs += 1;
