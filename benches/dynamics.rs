@@ -2,7 +2,7 @@
 //! rigid PUMA 560 of the reference, as Pinocchio's figures: RNEA 1.05 µs, CRBA 0.55 µs, ABA
 //! 2.3 µs on this machine class), the same underwater (added mass, strip drag, buoyancy), one
 //! forward-dynamics evaluation of the whole floating system, FK/Jacobian/IK (all solutions, and
-//! the nearest alone) and one RK4 plant step. After criterion's report, a table of the *minimum* time per call over 200 batches,
+//! the nearest alone) and one plant step (RK4 and semi-implicit Euler). After criterion's report, a table of the *minimum* time per call over 200 batches,
 //! which stays stable on a shared, loaded machine where criterion's means do not.
 //!
 //! `cargo bench --bench dynamics`
@@ -31,7 +31,7 @@ fn joint_state() -> (JointVector, JointVector, JointVector) {
 }
 
 /// Every timed call, built on the models it needs.
-fn cases<'a>(rtb: &'a UvmsModel, def: &'a UvmsModel, plant: &'a mut Plant) -> Vec<Case<'a>> {
+fn cases<'a>(rtb: &'a UvmsModel, def: &'a UvmsModel, plants: &'a mut [Plant]) -> Vec<Case<'a>> {
     let (q, qd, qdd) = joint_state();
     let mut out: Vec<Case> = Vec::new();
     for (name, m) in [("arm_rigid", rtb), ("arm_underwater", def)] {
@@ -87,8 +87,8 @@ fn cases<'a>(rtb: &'a UvmsModel, def: &'a UvmsModel, plant: &'a mut Plant) -> Ve
             black_box(black_box(&a3).ik_nearest(black_box(&target), black_box(&q)).ok());
         }),
     ));
-    let sys = plant.system.clone();
-    let s = plant.state;
+    let sys = plants[0].system.clone();
+    let s = plants[0].state;
     let u = Inputs {
         tau_drive: JointVector::new(5.0, 60.0, 20.0, 1.0, 1.0, 0.5),
         body_wrench: Force::new(Vector3::new(10.0, 0.0, -20.0), Vector3::new(0.0, 5.0, 0.0)),
@@ -100,18 +100,24 @@ fn cases<'a>(rtb: &'a UvmsModel, def: &'a UvmsModel, plant: &'a mut Plant) -> Ve
             black_box(black_box(&sys).accelerations(black_box(&s), black_box(&u)).ok());
         }),
     ));
-    out.push((
-        "floating/plant_step_rk4".into(),
-        Box::new(move || {
-            plant.state = s;
-            let input = PlantInput {
-                tau_drive: u.tau_drive,
-                thrust_cmd: &[0.0; 6],
-                f_env_on_tool: u.f_env_on_tool,
-            };
-            black_box(plant.step(1e-3, black_box(&input)).ok());
-        }),
-    ));
+    for plant in plants {
+        let name = match plant.integrator {
+            Integrator::Rk4 => "floating/plant_step_rk4",
+            Integrator::SemiImplicitEuler => "floating/plant_step_semi_implicit",
+        };
+        out.push((
+            name.into(),
+            Box::new(move || {
+                plant.state = s;
+                let input = PlantInput {
+                    tau_drive: u.tau_drive,
+                    thrust_cmd: &[0.0; 6],
+                    f_env_on_tool: u.f_env_on_tool,
+                };
+                black_box(plant.step(1e-3, black_box(&input)).ok());
+            }),
+        ));
+    }
     out
 }
 
@@ -145,9 +151,10 @@ fn main() {
         q,
         qd,
     };
-    let mut plant = Plant::new(&def, s, Integrator::Rk4).unwrap();
+    let mut plants =
+        [Integrator::Rk4, Integrator::SemiImplicitEuler].map(|i| Plant::new(&def, s, i).unwrap());
     let mut criterion = Criterion::default().configure_from_args();
-    let mut all = cases(&rtb, &def, &mut plant);
+    let mut all = cases(&rtb, &def, &mut plants);
     for (name, f) in &mut all {
         criterion.bench_function(name, |b| b.iter(&mut *f));
     }

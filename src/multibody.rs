@@ -69,7 +69,9 @@ impl State {
 
     /// Whether every number is finite.
     pub fn is_finite(&self) -> bool {
-        self.t_world_body.to_homogeneous().iter().all(|v| v.is_finite())
+        let t = &self.t_world_body;
+        t.translation.vector.iter().all(|v| v.is_finite())
+            && t.rotation.coords.iter().all(|v| v.is_finite())
             && self
                 .nu
                 .iter()
@@ -234,10 +236,37 @@ impl Multibody {
     /// # Errors
     /// [`Error::Failed`] (stage `dynamics`) if the mass matrix is not positive definite.
     pub fn accelerations(&self, s: &State, u: &Inputs) -> Result<Accelerations> {
+        self.accelerations_friction_implicit(s, u, 0.0)
+    }
+
+    /// The accelerations of one step of `h` seconds with the joint friction linearly implicit:
+    /// the friction at the end of the step taken as `F(q̇) + D h q̈` (`D = ∂F/∂q̇`, the slope of
+    /// the smoothed Coulomb and viscous friction), i.e. `(H + h D) ζ̇ = rhs`. The smoothed
+    /// Coulomb friction is steep (`Tc/ε` N·m·s/rad); explicitly, a joint at rest under a load
+    /// below the Coulomb level overshoots zero every step and its acceleration alternates in
+    /// sign, implicitly it settles. `shaft_torque` holds the friction of the step, `F + D h q̈`.
+    /// `h = 0` is [`Multibody::accelerations`].
+    ///
+    /// # Errors
+    /// [`Error::Failed`] (stage `dynamics`) if `H + h D` is not positive definite.
+    pub fn accelerations_friction_implicit(&self, s: &State, u: &Inputs, h: f64) -> Result<Accelerations> {
         let k = self.kinematics(s);
         let bias = self.rnea(s, &k, &GenVector::zeros(), &u.f_env_on_tool, None);
-        let h = self.mass_matrix_from(&k.xs);
-        let friction = self.arm.friction(&s.qd, Some(self.arm.coulomb_smoothing));
+        let mut mass = self.mass_matrix_from(&k.xs);
+        let eps = Some(self.arm.coulomb_smoothing);
+        let (friction, slope) = {
+            let mut f = JointVector::zeros();
+            let mut d = JointVector::zeros();
+            for (j, link) in self.arm.links.iter().enumerate() {
+                (f[j], d[j]) = link.friction(s.qd[j], eps);
+            }
+            (f, d * h)
+        };
+        if h != 0.0 {
+            for j in 0..N_JOINTS {
+                mass[(6 + j, 6 + j)] += slope[j];
+            }
+        }
         let mut rhs = -bias;
         let body = u.body_wrench.to_vector6();
         for i in 0..6 {
@@ -246,9 +275,14 @@ impl Multibody {
         for j in 0..N_JOINTS {
             rhs[6 + j] += u.tau_drive[j] - friction[j];
         }
-        let zd = solve_spd(h, &rhs)
+        let zd = solve_spd(mass, &rhs)
             .ok_or_else(|| Error::failed("dynamics", "the mass matrix is not positive definite"))?;
         let qdd: JointVector = zd.fixed_rows::<N_JOINTS>(6).into_owned();
+        let friction = if h != 0.0 {
+            friction + slope.component_mul(&qdd)
+        } else {
+            friction
+        };
         Ok(Accelerations {
             nu_dot: zd.fixed_rows::<6>(0).into_owned(),
             qdd,
@@ -332,6 +366,13 @@ impl Multibody {
     /// [`Multibody::t_world_tool`] and [`Multibody::tool_velocity_world`] from one forward
     /// kinematics.
     pub fn tool_pose_velocity_world(&self, s: &State) -> (Isometry3<f64>, Vector6<f64>) {
+        let (t, v, _) = self.tool_kinematics(s);
+        (t, v)
+    }
+
+    /// [`Multibody::tool_pose_velocity_world`] and the arm's Jacobian of the tool point at
+    /// `s.q` (base frame, [`Arm::jacobian`]), from one forward kinematics.
+    pub fn tool_kinematics(&self, s: &State) -> (Isometry3<f64>, Vector6<f64>, Matrix6<f64>) {
         let chain = self.arm.chain(&s.q);
         let t_base_tool = chain.t_base_flange() * self.arm.t_flange_tool;
         let t_body_tool = self.arm.t_body_base * t_base_tool;
@@ -339,7 +380,8 @@ impl Multibody {
         let p = t_body_tool.translation.vector;
         let w = Vector3::new(s.nu[3], s.nu[4], s.nu[5]);
         let v_vehicle = Vector3::new(s.nu[0], s.nu[1], s.nu[2]) + w.cross(&p);
-        let j = chain.jacobian_at(&self.arm.t_flange_tool.translation.vector) * s.qd;
+        let jacobian = chain.jacobian_at(&self.arm.t_flange_tool.translation.vector);
+        let j = jacobian * s.qd;
         let r_b0 = self.arm.t_body_base.rotation;
         let v = v_vehicle + r_b0 * Vector3::new(j[0], j[1], j[2]);
         let om = w + r_b0 * Vector3::new(j[3], j[4], j[5]);
@@ -348,6 +390,7 @@ impl Multibody {
         (
             s.t_world_body * self.arm.t_body_base * t_base_tool,
             Vector6::new(v.x, v.y, v.z, om.x, om.y, om.z),
+            jacobian,
         )
     }
 

@@ -108,7 +108,7 @@ impl Plant {
                 (unpack(&x), acc)
             }
             Integrator::SemiImplicitEuler => {
-                let acc = self.system.accelerations(&self.state, &u)?;
+                let acc = self.system.accelerations_friction_implicit(&self.state, &u, dt)?;
                 let s = &self.state;
                 let nu = s.nu + acc.nu_dot * dt;
                 let qd = s.qd + acc.qdd * dt;

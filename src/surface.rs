@@ -7,7 +7,8 @@ use crate::error::{Error, Result};
 use crate::mesh::TriangleMesh;
 use nalgebra::{Point3, Vector3};
 use parry3d_f64::math::Vector as GVec;
-use parry3d_f64::query::{PointQueryWithLocation, Ray, RayCast};
+use parry3d_f64::query::{PointProjection, PointQuery, PointQueryWithLocation, Ray, RayCast};
+use parry3d_f64::shape::TrianglePointLocation;
 use parry3d_f64::shape::{TriMesh, TriMeshFlags};
 
 /// A triangle mesh prepared for queries (a BVH over its triangles).
@@ -110,6 +111,41 @@ impl Surface {
     /// The closest point of the surface to `p`.
     pub fn project(&self, p: &Point3<f64>) -> Projection {
         let (proj, (tri, loc)) = self.mesh.project_local_point_and_get_location(g(p), false);
+        self.projection(p, &proj, tri, &loc)
+    }
+
+    /// [`Surface::project`] warm-started by the triangle `hint` (the last closest triangle of a
+    /// point that moves a little between queries): the distance to it bounds the search, so the
+    /// BVH descends only into boxes nearer than that. The closest point is the same; of
+    /// triangles equally near (the point closest to a shared edge or vertex) the search may
+    /// settle on another one than `project` would.
+    pub fn project_near(&self, p: &Point3<f64>, hint: usize) -> Projection {
+        let q = g(p);
+        let Ok(hint) = u32::try_from(hint) else {
+            return self.project(p);
+        };
+        if hint as usize >= self.triangle_count() {
+            return self.project(p);
+        }
+        let bound = (self.mesh.triangle(hint).project_local_point(q, false).point - q).length();
+        // Strictly inside the bound is what the search accepts: widen it by the round-off.
+        let max_dist = bound * (1.0 + 1e-9) + 1e-12;
+        match self
+            .mesh
+            .project_local_point_and_get_location_with_max_dist(q, false, max_dist)
+        {
+            Some((proj, (tri, loc))) => self.projection(p, &proj, tri, &loc),
+            None => self.project(p),
+        }
+    }
+
+    fn projection(
+        &self,
+        p: &Point3<f64>,
+        proj: &PointProjection,
+        tri: u32,
+        loc: &TrianglePointLocation,
+    ) -> Projection {
         let point = na(proj.point);
         Projection {
             point,
@@ -220,6 +256,27 @@ mod tests {
         assert!((q - p.point).norm() < 1e-12);
         assert!(s.contains(&Point3::new(0.3, 0.3, 0.3)));
         assert!(!s.contains(&Point3::new(1.3, 0.3, 0.3)));
+    }
+
+    #[test]
+    fn projection_warm_started_anywhere_finds_the_same_closest_point() {
+        let s = Surface::new(&cube()).unwrap();
+        let mut rng = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> 11) as f64 / (1u64 << 53) as f64 * 3.0 - 1.0
+        };
+        for _ in 0..200 {
+            let p = Point3::new(next(), next(), next());
+            let want = s.project(&p);
+            for hint in [0, 5, 11, want.triangle, 99] {
+                let got = s.project_near(&p, hint);
+                assert!((got.point - want.point).norm() < 1e-12, "{p} from {hint}");
+                assert_eq!(got.distance, want.distance);
+            }
+        }
     }
 
     fn m_point(m: &TriangleMesh, t: usize, w: [f64; 3]) -> Point3<f64> {

@@ -4,7 +4,7 @@
 
 use nalgebra::{Cholesky, Isometry3, Matrix6, UnitQuaternion, Vector3, Vector6};
 use uvms::arm::{BaseMotion, JointVector};
-use uvms::integrate::Integrator;
+use uvms::integrate::{Integrator, exp_twist};
 use uvms::model::UvmsModel;
 use uvms::multibody::{GenVector, Inputs, Multibody, State};
 use uvms::plant::{Plant, PlantInput};
@@ -139,6 +139,119 @@ fn semi_implicit_euler_converges_to_rk4() {
     );
     eprintln!("semi-implicit Euler error at 2 ms {e1:.3e}, at 1 ms {e2:.3e}");
     assert!(e1 < 1e-2 && (e1 / e2 - 2.0).abs() < 0.3, "{e1} {e2}");
+}
+
+/// The ideal fluid with the drives' friction back: friction is the only loss.
+fn friction_only_model() -> UvmsModel {
+    let mut m = ideal_fluid_model();
+    for (l, d) in m.arm.links.iter_mut().zip(&UvmsModel::default().arm.links) {
+        l.viscous_friction = d.viscous_friction;
+        l.coulomb_friction = d.coulomb_friction;
+    }
+    m
+}
+
+/// The number of sign changes of `qdd[j]` after the first `skip` steps of a 1 s run at `dt`
+/// from rest with joint `j` loaded by half its Coulomb level, and the joint's final rate;
+/// `implicit`: the plant's semi-implicit Euler, else the same step with explicit friction.
+fn loaded_joint(j: usize, dt: f64, implicit: bool) -> (usize, f64) {
+    let start = State::at_rest(Isometry3::identity(), moving_state().q);
+    let mut p = Plant::new(&friction_only_model(), start, Integrator::SemiImplicitEuler).unwrap();
+    let mut tau = JointVector::zeros();
+    tau[j] = 0.5 * p.system.arm.links[j].coulomb[0];
+    let cmd = vec![0.0; p.thrusters.len()];
+    let (mut prev, mut changes) = (0.0, 0);
+    for k in 0..(1.0 / dt).round() as usize {
+        let qdd = if implicit {
+            let input = PlantInput {
+                tau_drive: tau,
+                thrust_cmd: &cmd,
+                f_env_on_tool: Force::ZERO,
+            };
+            p.step(dt, &input).unwrap().accelerations.qdd[j]
+        } else {
+            let u = Inputs {
+                tau_drive: tau,
+                ..Inputs::default()
+            };
+            let acc = p.system.accelerations(&p.state, &u).unwrap();
+            let s = p.state;
+            let (nu, qd) = (s.nu + acc.nu_dot * dt, s.qd + acc.qdd * dt);
+            p.state = State {
+                t_world_body: exp_twist(&s.t_world_body, &nu, dt),
+                nu,
+                q: s.q + qd * dt,
+                qd,
+            };
+            acc.qdd[j]
+        };
+        if k > 3 && qdd * prev < 0.0 {
+            changes += 1;
+        }
+        prev = qdd;
+    }
+    (changes, p.state.qd[j])
+}
+
+#[test]
+fn implicit_joint_friction_holds_a_loaded_joint_without_chatter() {
+    // No gravity, no hydrodynamic loss: each joint in turn loaded with half its Coulomb level
+    // creeps at the smoothed friction's rate ε·atanh(½) and no faster. At a 10 ms step, longer
+    // than the steep friction (Tc/ε up to 1.2e3 N·m·s/rad) allows an explicit step on joints 1
+    // to 5, the explicit step makes their accelerations alternate in sign every step; the
+    // linearly implicit one settles without alternating.
+    let dt = 1e-2;
+    let eps = UvmsModel::default().arm.coulomb_smoothing;
+    let creep = eps * 0.5f64.atanh();
+    for j in 0..5 {
+        let (changes, qd) = loaded_joint(j, dt, true);
+        let (explicit_changes, _) = loaded_joint(j, dt, false);
+        eprintln!(
+            "joint {}: implicit {changes} sign changes, q̇ {qd:.5} (creep {creep:.5}); explicit {explicit_changes}",
+            j + 1
+        );
+        assert!(changes <= 2, "joint {}: {changes} sign changes", j + 1);
+        assert!(
+            (qd - creep).abs() < 0.03 * creep,
+            "joint {}: {qd} vs {creep}",
+            j + 1
+        );
+        assert!(
+            explicit_changes > 50,
+            "joint {}: the explicit step did not chatter",
+            j + 1
+        );
+    }
+}
+
+#[test]
+fn implicit_joint_friction_creates_no_energy() {
+    // Friction the only loss, no drive torques, the arm swinging on a vehicle at rest: over 3 s
+    // at a step ten times the control period the kinetic energy never exceeds its start and the
+    // friction takes the arm's share (the momentum given to the vehicle stays).
+    let start = State {
+        nu: Vector6::zeros(),
+        ..moving_state()
+    };
+    let mut plant = Plant::new(&friction_only_model(), start, Integrator::SemiImplicitEuler).unwrap();
+    let e0 = plant.system.kinetic_energy(&plant.state);
+    let mut highest: f64 = 0.0;
+    run(
+        &mut plant,
+        1e-2,
+        300,
+        |_| JointVector::zeros(),
+        |p| {
+            highest = highest.max(p.system.kinetic_energy(&p.state));
+        },
+    );
+    let e1 = plant.system.kinetic_energy(&plant.state);
+    eprintln!(
+        "kinetic energy {e0:.4} -> {e1:.4} J, highest {highest:.4} J, q̇ {:.2e}",
+        plant.state.qd.amax()
+    );
+    assert!(highest <= e0, "{highest} > {e0}");
+    assert!(e1 < 0.5 * e0 && plant.state.qd.amax() < 1e-3, "{e1}");
 }
 
 #[test]

@@ -112,19 +112,56 @@ impl Arm {
         let xs = self.transforms(q);
         let f6 = match f_env_on_tool {
             None => Force::ZERO,
-            Some(f) => {
-                let r60 = xs.x.iter().fold(Matrix3::identity(), |acc, x| x.rot * acc);
-                self.tool_wrench_in_flange(&(r60 * f.lin), &(r60 * f.ang))
-            }
+            Some(f) => self.flange_wrench(&xs, f),
         };
+        self.inverse_dynamics_at(&xs, qd, qdd, base, &f6)
+    }
+
+    /// [`Arm::inverse_dynamics`] of free motion, and the wrench on the base that the same motion
+    /// gives with the environment's wrench `f_env_on_tool` on the tool (base-frame axes, moment
+    /// about the tool point): what `inverse_dynamics` with it returns as `wrench_on_base`, from
+    /// the same RNEA. The tool wrench enters the base wrench linearly, carried to the base
+    /// through the link transforms (equal up to round-off).
+    pub fn inverse_dynamics_loaded(
+        &self,
+        q: &JointVector,
+        qd: &JointVector,
+        qdd: &JointVector,
+        base: &BaseMotion,
+        f_env_on_tool: &Force,
+    ) -> (InverseDynamics, Force) {
+        let xs = self.transforms(q);
+        let free = self.inverse_dynamics_at(&xs, qd, qdd, base, &Force::ZERO);
+        let f6 = self.flange_wrench(&xs, f_env_on_tool);
+        let tool_on_base = xs.x.iter().rev().fold(f6, |f, x| x.force_inv(&f));
+        (free, free.wrench_on_base + tool_on_base)
+    }
+
+    /// The inverse dynamics at the link transforms `xs` with the environment's wrench `f6` on
+    /// link 6 (frame 6, about its origin).
+    fn inverse_dynamics_at(
+        &self,
+        xs: &LinkTransforms,
+        qd: &JointVector,
+        qdd: &JointVector,
+        base: &BaseMotion,
+        f6: &Force,
+    ) -> InverseDynamics {
         let mut tau_rigid = JointVector::zeros();
-        let f1 = self.rnea(&xs, qd, qdd, base, &f6, &mut tau_rigid, None);
+        let f1 = self.rnea(xs, qd, qdd, base, f6, &mut tau_rigid, None);
         let tau = tau_rigid + self.armature().component_mul(qdd) + self.friction(qd, None);
         InverseDynamics {
             tau,
             tau_rigid,
             wrench_on_base: -xs.x[0].force_inv(&f1),
         }
+    }
+
+    /// A wrench on the tool (base-frame axes, moment about the tool point) in frame 6 about its
+    /// origin, at the link transforms `xs`.
+    fn flange_wrench(&self, xs: &LinkTransforms, f: &Force) -> Force {
+        let r60 = xs.x.iter().fold(Matrix3::identity(), |acc, x| x.rot * acc);
+        self.tool_wrench_in_flange(&(r60 * f.lin), &(r60 * f.ang))
     }
 
     /// A wrench on the tool (frame-6 axes, moment about the tool point) as a wrench about the
@@ -274,6 +311,30 @@ mod tests {
     use crate::model::UvmsModel;
 
     use crate::arm::test_arm as arm;
+
+    #[test]
+    fn the_loaded_base_wrench_is_the_inverse_dynamics_with_the_tool_wrench() {
+        let arm = arm();
+        let q = JointVector::new(0.2, 1.0, -2.0, 0.3, 0.9, -0.4);
+        let qd = JointVector::new(0.5, -0.7, 0.6, -0.9, 0.8, 1.1);
+        let qdd = JointVector::new(1.0, -0.5, 0.8, -1.2, 0.9, 2.0);
+        let base = BaseMotion::on_vehicle(
+            &arm,
+            &UnitQuaternion::from_euler_angles(0.1, -0.2, 0.3),
+            &Vector6::new(0.1, -0.2, 0.05, 0.2, -0.1, 0.3),
+            &Vector6::new(0.3, 0.1, -0.2, 0.4, 0.2, -0.1),
+            9.81,
+            &Vector3::new(0.2, 0.0, 0.1),
+        );
+        let f = Force::new(Vector3::new(30.0, -45.0, 60.0), Vector3::new(1.0, 2.0, -3.0));
+        let (free, loaded) = arm.inverse_dynamics_loaded(&q, &qd, &qdd, &base, &f);
+        assert_eq!(free, arm.inverse_dynamics(&q, &qd, &qdd, &base, None));
+        let want = arm
+            .inverse_dynamics(&q, &qd, &qdd, &base, Some(&f))
+            .wrench_on_base;
+        let err = (loaded.to_vector6() - want.to_vector6()).norm();
+        assert!(err < 1e-12 * want.to_vector6().norm(), "{loaded:?} vs {want:?}");
+    }
 
     #[test]
     fn forward_dynamics_inverts_inverse_dynamics_underwater() {

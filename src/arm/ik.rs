@@ -143,8 +143,10 @@ impl Arm {
             }
             let beta0 = cos_beta.clamp(-1.0, 1.0).acos();
             let elevation = pz.atan2(r);
-            for beta in [beta0, -beta0] {
-                let theta2 = elevation - (l3 * beta.sin()).atan2(a2 + l3 * beta.cos());
+            // sin is odd and cos even, exactly so in floating point too.
+            let (sin0, cos0) = beta0.sin_cos();
+            for (beta, sin_beta) in [(beta0, sin0), (-beta0, -sin0)] {
+                let theta2 = elevation - (l3 * sin_beta).atan2(a2 + l3 * cos0);
                 let theta3 = beta - psi;
                 pairs[n_pairs] = [theta1 - off(0), theta2 - off(1), theta3 - off(2)];
                 n_pairs += 1;
@@ -293,18 +295,18 @@ impl Arm {
             let (i, raw) = (first + j, raw[j]);
             let [lo, hi] = self.links[i].limits;
             // Candidates raw + 2πk inside [lo, hi]; the one nearest to q_now.
-            let k_lo = ((lo - raw) / TAU).ceil() as i64;
-            let k_hi = ((hi - raw) / TAU).floor() as i64;
+            let k_lo = ceil_i64((lo - raw) / TAU);
+            let k_hi = floor_i64((hi - raw) / TAU);
             if k_lo > k_hi {
                 // Tolerate round-off at a limit.
-                let clamped = raw - TAU * ((raw - 0.5 * (lo + hi)) / TAU).round();
+                let clamped = raw - TAU * round_i64((raw - 0.5 * (lo + hi)) / TAU) as f64;
                 if clamped >= lo - 1e-12 && clamped <= hi + 1e-12 {
                     *qj = clamped.clamp(lo, hi);
                     continue;
                 }
                 return None;
             }
-            let k_near = ((q_now[i] - raw) / TAU).round() as i64;
+            let k_near = round_i64((q_now[i] - raw) / TAU);
             let k = k_near.clamp(k_lo, k_hi);
             *qj = raw + TAU * k as f64;
         }
@@ -350,6 +352,34 @@ impl Arm {
     }
 }
 
+// `f64::floor`, `ceil` and `round` as integers, inline: the target's baseline (x86-64 without
+// SSE4.1) has no rounding instruction and the library's are software routines, a good part of
+// the IK's time. The same values as `x.floor() as i64` etc. (`as` saturates, NaN gives 0); `x`
+// minus its truncation is exact.
+
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x { t - 1 } else { t }
+}
+
+fn ceil_i64(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) < x { t + 1 } else { t }
+}
+
+/// Halves away from zero, as `f64::round`.
+fn round_i64(x: f64) -> i64 {
+    let t = x as i64;
+    let frac = x - t as f64;
+    if frac >= 0.5 {
+        t + 1
+    } else if frac <= -0.5 {
+        t - 1
+    } else {
+        t
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -357,6 +387,37 @@ mod tests {
     use rand::{RngExt, SeedableRng};
 
     use crate::arm::test_arm as arm;
+
+    #[test]
+    fn integer_rounding_is_the_library_s() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            -1.5,
+            2.5,
+            -2.5,
+            0.49999999999999994,
+            -0.49999999999999994,
+        ];
+        values.extend([
+            1.0 - f64::EPSILON / 2.0,
+            -1.0 + f64::EPSILON / 2.0,
+            3.0,
+            -3.0,
+            1e6 + 0.5,
+            f64::NAN,
+        ]);
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        values.extend((0..10_000).map(|_| rng.random_range(-10.0..10.0)));
+        for x in values {
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
+            assert_eq!(ceil_i64(x), x.ceil() as i64, "{x}");
+            assert_eq!(round_i64(x), x.round() as i64, "{x}");
+        }
+    }
 
     fn random_q(arm: &Arm, rng: &mut ChaCha8Rng) -> JointVector {
         JointVector::from_fn(|i, _| {

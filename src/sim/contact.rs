@@ -100,6 +100,8 @@ impl ContactState {
 pub struct Contact {
     surface: Surface,
     cfg: ContactConfig,
+    /// The closest triangle of the last query, which starts the next one's search.
+    last_triangle: Option<usize>,
 }
 
 impl Contact {
@@ -113,12 +115,18 @@ impl Contact {
         Ok(Contact {
             surface: Surface::new(mesh)?,
             cfg: *cfg,
+            last_triangle: None,
         })
     }
 
-    /// The contact force on a tool tip at `tip` moving with velocity `v` (world).
-    pub fn evaluate(&self, tip: &Point3<f64>, v: &Vector3<f64>) -> ContactState {
-        let proj = self.surface.project(tip);
+    /// The contact force on a tool tip at `tip` moving with velocity `v` (world). The search
+    /// for the closest point starts from the last query's closest triangle.
+    pub fn evaluate(&mut self, tip: &Point3<f64>, v: &Vector3<f64>) -> ContactState {
+        let proj = match self.last_triangle {
+            Some(t) => self.surface.project_near(tip, t),
+            None => self.surface.project(tip),
+        };
+        self.last_triangle = Some(proj.triangle);
         let n = proj.normal;
         let depth = (proj.point - tip).dot(&n);
         if depth <= 0.0 {
@@ -169,7 +177,7 @@ mod tests {
 
     #[test]
     fn penalty_force_is_stiffness_times_depth() {
-        let c = Contact::new(&floor(), &ContactConfig::default()).unwrap();
+        let mut c = Contact::new(&floor(), &ContactConfig::default()).unwrap();
         let s = c.evaluate(&Point3::new(0.1, 0.2, 0.006), &Vector3::zeros());
         assert!((s.normal - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-12);
         assert!((s.depth - 0.006).abs() < 1e-12);
@@ -181,7 +189,7 @@ mod tests {
 
     #[test]
     fn friction_opposes_sliding_and_is_bounded_by_mu_fn() {
-        let c = Contact::new(&floor(), &ContactConfig::default()).unwrap();
+        let mut c = Contact::new(&floor(), &ContactConfig::default()).unwrap();
         let v = Vector3::new(0.02, 0.0, 0.0);
         let s = c.evaluate(&Point3::new(0.0, 0.0, 0.006), &v);
         let ft = Vector3::new(s.wrench.lin.x, s.wrench.lin.y, 0.0);
@@ -200,7 +208,7 @@ mod tests {
             stiffness_n_m: 2000.0,
             ..ContactConfig::default()
         };
-        let c = Contact::new(&floor(), &cfg).unwrap();
+        let mut c = Contact::new(&floor(), &cfg).unwrap();
         let s = c.evaluate(&Point3::new(0.0, 0.0, 0.02), &Vector3::new(0.0, 0.02, 0.0));
         assert!((s.wrench.lin.y + 70.0).abs() < 0.1, "{}", s.wrench.lin.y);
         assert!((s.wrench.lin.z + 40.0).abs() < 1e-9);

@@ -15,6 +15,7 @@ use crate::arm::{Arm, JointVector};
 use crate::config::{non_negative, positive};
 use crate::error::Result;
 use crate::integrate::lag_gain_hz;
+use crate::spatial_algebra::Force;
 use serde::{Deserialize, Serialize};
 
 /// Joint-controller parameters (`[sim.joints]`).
@@ -124,7 +125,11 @@ impl JointControl {
     }
 
     /// The drive torques for measured `q`, `q̇`, the identified external moments `m_ez`, the
-    /// base motion the controller believes, with `arm` the controller's model.
+    /// base motion the controller believes, with `arm` the controller's model; and, from the
+    /// same inverse dynamics, the wrench the commanded motion exerts on the arm's base (base
+    /// frame, about its origin) with the environment's wrench `f_env_on_tool` on the tool
+    /// (base-frame axes, about the tool point), for the vehicle's open loop (eq. 17).
+    #[allow(clippy::too_many_arguments)]
     pub fn torque(
         &mut self,
         arm: &Arm,
@@ -132,13 +137,14 @@ impl JointControl {
         qd: &JointVector,
         m_ez: &JointVector,
         base: &BaseMotion,
+        f_env_on_tool: &Force,
         dt: f64,
-    ) -> JointVector {
+    ) -> (JointVector, Force) {
         let c = &self.cfg;
         let w = c.bandwidth_rad_s;
         let a = self.qdd_ref + (self.q_ref - q) * (w * w) + (self.qd_ref - qd) * (2.0 * c.damping_ratio * w);
         self.commanded = a;
-        let id = arm.inverse_dynamics(q, qd, &a, base, None);
+        let (id, on_base) = arm.inverse_dynamics_loaded(q, qd, &a, base, f_env_on_tool);
         let mut tau = id.tau_rigid
             + arm.armature().component_mul(&a)
             + arm.friction(&self.qd_ref, Some(arm.coulomb_smoothing));
@@ -148,7 +154,7 @@ impl JointControl {
             tau += self.m_ez;
         }
         self.last_torque = Some(tau);
-        tau
+        (tau, on_base)
     }
 }
 

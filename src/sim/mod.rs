@@ -51,7 +51,7 @@ use fcu::{Fcu, FcuConfig, force_error};
 use hover::{Hover, HoverConfig};
 use icu::{Icu, IcuConfig};
 use joints::{JointControl, JointControlConfig};
-use nalgebra::{Isometry3, Translation3, Vector3, Vector6};
+use nalgebra::{Isometry3, Matrix6, Translation3, Vector3, Vector6};
 use navigation::{Navigation, NavigationConfig};
 use record::{Figures, Recorder, Row};
 use sensors::{SensorConfig, Sensors, Truth};
@@ -256,7 +256,7 @@ impl Default for SimConfig {
             surface_frame: SurfaceFrame::Scan,
             control_rate_hz: 1000.0,
             plant_substeps: 1,
-            integrator: Integrator::Rk4,
+            integrator: Integrator::SemiImplicitEuler,
             log_rate_hz: 100.0,
             tail_s: 0.5,
             settle_time_s: 1.5,
@@ -376,7 +376,7 @@ pub fn simulate(
     let hover = hover::choose(arm, &allocator, trajectory, &cfg.hover)?;
     let h = hover.t_world_body;
     let mut plant = Plant::new(&plant_model, State::at_rest(h, hover.q_start), cfg.integrator)?;
-    let contact = Contact::new(surface, &cfg.contact)?;
+    let mut contact = Contact::new(surface, &cfg.contact)?;
     let mut sensors = Sensors::new(&cfg.sensors, cfg.seed, h.translation.vector);
     let mut fcu = Fcu::new(&cfg.force);
     let mut icu = Icu::new(&cfg.icu);
@@ -505,12 +505,13 @@ pub fn simulate(
         };
         prev_target = Some(target);
         joints.follow(&q_set, &qd_set, dt);
-        let tau = joints.torque(arm, &meas.q, &meas.qd, &id.m_ez, &base, dt);
+        // The drive torques, and the arm's wrench on the vehicle for the commanded motion under
+        // the identified tool force (the open loop of eq. 17) from the same inverse dynamics.
+        let f_e = Force::new(-id.f_imp_base, Vector3::zeros());
+        let (tau, arm_on_base) = joints.torque(arm, &meas.q, &meas.qd, &id.m_ez, &base, &f_e, dt);
         // AUV SS with the open loop of eq. (17).
         let open = if cfg.scenario.open_loop {
-            let f_e = Force::new(-id.f_imp_base, Vector3::zeros());
-            let w = arm.inverse_dynamics(&meas.q, &meas.qd, &joints.commanded, &base, Some(&f_e));
-            -arm.base_wrench_in_body(&w.wrench_on_base)
+            -arm.base_wrench_in_body(&arm_on_base)
         } else {
             Force::ZERO
         };
@@ -521,9 +522,9 @@ pub fn simulate(
         }
         // The plant: contact against the true surface, then the step.
         let state = plant.state;
-        let (t_world_tool, mut cs) = touch(&contact, &plant.system, &state);
+        let (t_world_tool, mut cs, jacobian) = touch(&mut contact, &plant.system, &state);
         let tip = t_world_tool.translation.vector;
-        let m_ez_true = external_moments(&plant.system, &state, &cs.wrench.lin);
+        let m_ez_true = external_moments(&plant.system, &state, &jacobian, &cs.wrench.lin);
         if k.is_multiple_of(log_every) {
             rec.push(Row::new(&record::RowInput {
                 t,
@@ -562,7 +563,7 @@ pub fn simulate(
         let mut first_acc = None;
         for sub in 0..cfg.plant_substeps {
             if sub > 0 {
-                cs = touch(&contact, &plant.system, &plant.state).1;
+                cs = touch(&mut contact, &plant.system, &plant.state).1;
             }
             let input = PlantInput {
                 tau_drive: tau,
@@ -639,12 +640,16 @@ fn held_station(hover: &Hover, specific_force: Vector3<f64>) -> sensors::Measure
     }
 }
 
-/// The true tool pose at `s` and the contact there.
-fn touch(contact: &Contact, system: &Multibody, s: &State) -> (Isometry3<f64>, contact::ContactState) {
-    let (t_world_tool, v) = system.tool_pose_velocity_world(s);
+/// The true tool pose at `s`, the contact there and the arm's Jacobian of the tool point.
+fn touch(
+    contact: &mut Contact,
+    system: &Multibody,
+    s: &State,
+) -> (Isometry3<f64>, contact::ContactState, Matrix6<f64>) {
+    let (t_world_tool, v, jacobian) = system.tool_kinematics(s);
     let v = v.fixed_rows::<3>(0).into_owned();
     let state = contact.evaluate(&t_world_tool.translation.vector.into(), &v);
-    (t_world_tool, state)
+    (t_world_tool, state, jacobian)
 }
 
 /// What the sensors read of `s` with the accelerations `acc` of its step (gravity `g`).
@@ -665,11 +670,17 @@ fn truth_of(s: &State, acc: &Accelerations, g: f64) -> Truth {
     }
 }
 
-/// The true external joint moments of a tool-tip force `f_env` (world axes): `J_vᵀ F_imp`.
-fn external_moments(system: &Multibody, s: &State, f_env: &Vector3<f64>) -> JointVector {
+/// The true external joint moments of a tool-tip force `f_env` (world axes): `J_vᵀ F_imp`, with
+/// `jacobian` the arm's Jacobian of the tool point at `s.q`.
+fn external_moments(
+    system: &Multibody,
+    s: &State,
+    jacobian: &Matrix6<f64>,
+    f_env: &Vector3<f64>,
+) -> JointVector {
     let r_w0 = s.t_world_body.rotation * system.arm.t_body_base.rotation;
     let f_imp_base = r_w0.inverse() * -f_env;
-    system.arm.jacobian(&s.q).fixed_rows::<3>(0).transpose() * f_imp_base
+    jacobian.fixed_rows::<3>(0).transpose() * f_imp_base
 }
 
 fn describe(s: &State) -> String {

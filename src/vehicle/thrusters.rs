@@ -112,12 +112,21 @@ impl Thrusters {
     /// Thrusts for the body wrench `tau` (`[force; moment]` in `C` about its origin), scaled to
     /// the limits keeping the wrench's direction (see the module docs).
     pub fn allocate(&self, tau: &Vector6<f64>) -> Allocation {
-        let t = &self.b_pinv * DVector::from_column_slice(tau.as_slice());
-        let residual = (&self.b * &t - DVector::from_column_slice(tau.as_slice())).norm();
-        let ratio = self.ratio(t.iter().copied());
+        let mut thrusts: Vec<f64> = self.unscaled(tau).collect();
+        let residual = (0..6)
+            .map(|r| {
+                let achieved: f64 = thrusts.iter().enumerate().map(|(j, t)| self.b[(r, j)] * t).sum();
+                (achieved - tau[r]).powi(2)
+            })
+            .sum::<f64>()
+            .sqrt();
+        let ratio = self.ratio(thrusts.iter().copied());
         let scale = if ratio > 1.0 { 1.0 / ratio } else { 1.0 };
+        for t in &mut thrusts {
+            *t *= scale;
+        }
         Allocation {
-            thrusts: t.iter().map(|x| x * scale).collect(),
+            thrusts,
             scale,
             in_span: residual <= 1e-9 * (1.0 + tau.norm()),
             residual,
@@ -127,13 +136,18 @@ impl Thrusters {
 
     /// The [`Allocation::utilisation`] of `tau` alone, without allocating.
     pub fn utilisation(&self, tau: &Vector6<f64>) -> f64 {
-        self.ratio((0..self.len()).map(|j| {
+        self.ratio(self.unscaled(tau))
+    }
+
+    /// The least-squares thrusts `B⁺ τ` before scaling.
+    fn unscaled<'a>(&'a self, tau: &'a Vector6<f64>) -> impl Iterator<Item = f64> + 'a {
+        (0..self.len()).map(|j| {
             let mut t = 0.0;
             for (i, x) in tau.iter().enumerate() {
                 t += self.b_pinv[(j, i)] * x;
             }
             t
-        }))
+        })
     }
 
     /// The largest `|T_j|/T_max,j` of the thrusts `t`.
