@@ -10,8 +10,11 @@
 //! The joint accelerations (`acceleration = "observer"`, the default) come from the drives' own
 //! equation: the rotor turns under the drive torque against the torque sensor and the drive's
 //! friction, `I_a q̈ = τ − M_dz − F(q̇)`, with `τ` the torque the joint controllers commanded
-//! for the period and `I_a`, `F` the controller's model of the drives ([`RateObserver`]; a
-//! per-joint observer on the tachometers takes the equation's slow error). A step of the
+//! for the period and `I_a`, `F` the controller's model of the drives, fused with the
+//! tachometers by a per-joint Kalman filter ([`DriveFilter`]) whose prediction is the arm's
+//! own: a change of the drive torques makes the accelerations jump by `H⁻¹ Δτ` (`H` the
+//! joint-space inertia with the rotors, computed every few periods), the friction's slope damps
+//! them over the period, and the filter learns the drive model's slow torque error. A step of the
 //! external moment shows in `M_dz` and through it in `q̈` within the period, so `M_ez` needs no
 //! filter that lines `M_dz` up with a lagging derivative; the torque sensors' noise goes through
 //! the equation as `(1 + M_ii/I_a,i)` times itself, and a first-order `output_hz` low-pass
@@ -49,14 +52,14 @@
 //! [`ForceMethod::LeastSquares`] (the default) uses all six equations,
 //! `(J_v J_vᵀ) F = J_v M_ez`, a 3 × 3 solve. Neither inverts the Jacobian.
 
-use super::sensors::Measurements;
+use super::sensors::{Measurements, SensorConfig};
 use crate::arm::dynamics::BaseMotion;
 use crate::arm::{Arm, JointVector};
 use crate::config::{non_negative, positive};
 use crate::error::Result;
 use crate::integrate::{lag_gain, lag_gain_hz};
 use crate::spatial_algebra::Motion;
-use nalgebra::{Matrix3, SVector, Vector3, Vector6};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix3x2, Matrix6, SVector, Vector2, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
 /// How the tool force is computed from the external joint moments.
@@ -81,7 +84,7 @@ pub enum Acceleration {
     Commanded,
     /// The drives' own equation, `I_a q̈ = τ − M_dz − friction(q̇)` (the rotor inertias, the
     /// commanded drive torque, the torque sensors, the drives' friction — all of the
-    /// controller's model), corrected by a rate observer on the tachometers ([`RateObserver`]):
+    /// controller's model), fused with the tachometers by a Kalman filter ([`DriveFilter`]):
     /// a step of the external moment reaches `q̈` and `M_dz` within the period, and nothing
     /// is differentiated.
     #[default]
@@ -98,67 +101,128 @@ pub struct Drive {
     pub torque: Option<JointVector>,
 }
 
-/// A per-joint observer of the joint rate `v` and of the acceleration `b` the drive model does
-/// not explain. The drive's equation `I_a v̇ = w − F(v) + I_a b`, with `w = τ − M_dz` (the
-/// drive torque commanded for the period the measurement opens, clipped to the torque limit,
-/// minus the torque sensor) and `F` the drives' friction, predicts the rate by a backward-Euler
-/// step from the last estimate (the smoothed Coulomb friction makes the equation stiff near
-/// rest: `dt F′/I_a` exceeds 1), `v⁻ = v + dt ((w − F(v⁻))/I_a + b)`; the acceleration is
-/// `(v⁻ − v)/dt`. The tachometer corrects: `v = v⁻ + l₁ e`, `b += l₂ e` with `e` the measured
-/// rate minus `v⁻` and `l₁ = 1 − p²`, `l₂ = (1 − p)²/dt` (both poles of the error dynamics at
-/// `p = exp(−2π hz dt)`). A step of the external moment reaches the acceleration at once
-/// (through `M_dz`), and nothing is differentiated.
-#[derive(Debug, Clone, Default)]
-pub struct RateObserver {
-    /// The rate and the unexplained acceleration.
-    state: Option<(JointVector, JointVector)>,
+/// The noise a [`DriveFilter`] assumes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DriveNoise {
+    /// Standard deviation of the tachometers, rad/s.
+    pub rate: f64,
+    /// Standard deviation of the torque sensors, N·m.
+    pub torque: f64,
+    /// Intensity of the white jerk that moves the joint acceleration, rad/s^2.5 (`√S`: the
+    /// acceleration's change over `dt` has the deviation `jerk √dt`).
+    pub jerk: f64,
+    /// Intensity of the random walk of the drive model's torque error, N·m/√s.
+    pub drive_error: f64,
 }
 
-impl RateObserver {
+/// A per-joint Kalman filter of the joint rate `v`, the joint acceleration `a` and the drive
+/// model's torque error `d` at each measurement, fusing the tachometer (`v` plus noise) with the
+/// drive's own equation at the measurement's instant, `w = I_a a + F(v) + d` plus the torque
+/// sensor's noise (`w = τ − M_dz`: the drive torque commanded for the period the measurement
+/// opens, clipped to the torque limit, minus the torque sensor; `F` the drive friction of the
+/// controller's model).
+///
+/// The prediction is the arm's own: with `H` the joint-space inertia including the rotors,
+/// a change `Δτ` of the drive torques at the period's start makes the accelerations jump by
+/// `H⁻¹ Δτ` (friction, external and bias moments do not jump), and over the period the
+/// friction's slope `F′` damps each joint's acceleration, `ȧ = −(F′/H_ii) a`, which `v`
+/// integrates; `a` and `d` also walk (white jerk, `jerk`; the drive error, `drive_error`).
+/// The smoothed Coulomb friction is steep near rest (`dt F′/I_a` above 1 on the PUMA's
+/// shoulder): there the drive equation ties `a` to `v` so tightly that the tachometer's noise
+/// through `F′/I_a` would swamp `a`; the filter linearises `F` at its latest estimate of `v`
+/// (iterated) and weighs the prediction, the equation and the tachometer by their variances.
+#[derive(Debug, Clone, Default)]
+pub struct DriveFilter {
+    /// Per joint: the state `(v, a, d)` and its covariance; and the clipped drive torques of the
+    /// last period.
+    state: Option<([JointState; 6], JointVector)>,
+}
+
+/// One joint's `(v, a, d)` and its covariance.
+type JointState = (Vector3<f64>, Matrix3<f64>);
+
+impl DriveFilter {
     /// The joint accelerations and rates at the measurement: the rates `qd`, the torque
     /// sensors `m_dz` and the drive torques `torque` (`None`: not known yet, the rates are
-    /// taken as the state and the acceleration as zero), with `arm` the controller's model and
-    /// `hz` the observer's bandwidth.
+    /// taken as the state and the acceleration as zero), with `arm` the controller's model,
+    /// `h_inv` the inverse of its joint-space inertia (with the rotors) and `noise` what the
+    /// filter assumes.
+    #[allow(clippy::too_many_arguments)]
     pub fn update(
         &mut self,
         arm: &Arm,
+        h_inv: &Matrix6<f64>,
         qd: &JointVector,
         m_dz: &JointVector,
         torque: Option<&JointVector>,
-        hz: f64,
+        noise: &DriveNoise,
         dt: f64,
     ) -> (JointVector, JointVector) {
         let Some(torque) = torque else {
-            self.state = Some((*qd, JointVector::zeros()));
+            self.state = None;
             return (JointVector::zeros(), *qd);
         };
-        let (v, b) = self.state.get_or_insert((*qd, JointVector::zeros()));
         let eps = arm.coulomb_smoothing;
+        let tau = JointVector::from_fn(|i, _| {
+            let lim = arm.links[i].torque_limit;
+            torque[i].clamp(-lim, lim)
+        });
+        let r = Matrix2::new(noise.rate.powi(2), 0.0, 0.0, noise.torque.powi(2));
+        let q = Matrix3::from_diagonal(&Vector3::new(
+            0.0,
+            noise.jerk.powi(2) * dt,
+            noise.drive_error.powi(2) * dt,
+        ));
+        let (joints, tau_last) = self.state.get_or_insert_with(|| {
+            // The acceleration is unknown at the start (the first drive equation gives it); the
+            // drive model is trusted, its error learnt as it walks.
+            let p0 = Matrix3::from_diagonal(&Vector3::new(noise.rate.powi(2), 1e4, noise.torque.powi(2)));
+            (std::array::from_fn(|i| (Vector3::new(qd[i], 0.0, 0.0), p0)), tau)
+        });
+        let jump = h_inv * (tau - *tau_last);
+        *tau_last = tau;
         let mut acc = JointVector::zeros();
-        let mut prior = *v;
-        for i in 0..6 {
+        let mut rate = *qd;
+        for (i, (x, p)) in joints.iter_mut().enumerate() {
             let l = &arm.links[i];
-            let lim = l.torque_limit;
-            let w = torque[i].clamp(-lim, lim) - m_dz[i];
-            if l.armature <= 0.0 {
+            let ia = l.armature;
+            if ia <= 0.0 || h_inv[(i, i)] <= 0.0 {
                 // No drive model: the tachometers alone.
                 continue;
             }
-            // Newton on g(x) = x − v − dt((w − F(x))/I_a + b), g′ = 1 + dt F′(x)/I_a ≥ 1.
-            let mut x = v[i];
-            for _ in 0..6 {
-                let (f, df) = l.friction(x, Some(eps));
-                let g = x - v[i] - dt * ((w - f) / l.armature + b[i]);
-                x -= g / (1.0 + dt * df / l.armature);
+            // Over the period: `ȧ = −λ a`, `λ = F′/H_ii` (with `1/H_ii ≈ (H⁻¹)_ii`).
+            let lambda = l.friction(x[0], Some(eps)).1 * h_inv[(i, i)];
+            let decay = (-lambda * dt).exp();
+            let reach = if lambda * dt > 1e-9 {
+                -(-lambda * dt).exp_m1() / lambda
+            } else {
+                dt
+            };
+            let phi = Matrix3::new(1.0, reach, 0.0, 0.0, decay, 0.0, 0.0, 0.0, 1.0);
+            let x_prior = phi * *x + Vector3::new(0.0, jump[i], 0.0);
+            let p_prior = phi * *p * phi.transpose() + q;
+            let z = Vector2::new(qd[i], tau[i] - m_dz[i]);
+            // Iterated update: the friction linearised at the latest estimate of `v`.
+            let mut xi = x_prior;
+            let mut gain = Matrix3x2::zeros();
+            let mut h = Matrix2x3::zeros();
+            for _ in 0..3 {
+                let (f, df) = l.friction(xi[0], Some(eps));
+                h = Matrix2x3::new(1.0, 0.0, 0.0, df, ia, 1.0);
+                let hx = Vector2::new(xi[0], ia * xi[1] + f + xi[2]);
+                let Some(s_inv) = (h * p_prior * h.transpose() + r).try_inverse() else {
+                    break;
+                };
+                gain = p_prior * h.transpose() * s_inv;
+                xi = x_prior + gain * (z - hx - h * (x_prior - xi));
             }
-            prior[i] = x;
-            acc[i] = (x - v[i]) / dt;
+            let ikh = Matrix3::identity() - gain * h;
+            *p = ikh * p_prior * ikh.transpose() + gain * r * gain.transpose();
+            *x = xi;
+            acc[i] = x[1];
+            rate[i] = x[0];
         }
-        let p = (-2.0 * std::f64::consts::PI * hz * dt).exp();
-        let e = qd - prior;
-        *v = prior + e * (1.0 - p * p);
-        *b += e * ((1.0 - p).powi(2) / dt);
-        (acc, *v)
+        (acc, rate)
     }
 }
 
@@ -189,8 +253,12 @@ pub struct IcuConfig {
     /// (`acceleration = "observer"`: the base acceleration of the IDP), Hz. The gyro rates'
     /// derivative is the noisiest input of the IDP (1 mrad/s on a vehicle arm's inertia).
     pub base_filter_hz: f64,
-    /// Bandwidth of the rate observer (`acceleration = "observer"`), Hz.
-    pub observer_hz: f64,
+    /// Intensity of the white jerk the drive filter assumes moves the joint accelerations
+    /// (`acceleration = "observer"`), rad/s^2.5.
+    pub jerk_noise: f64,
+    /// Intensity of the random walk of the drives' torque error (friction, rotor inertia) the
+    /// drive filter assumes (`acceleration = "observer"`), N·m/√s.
+    pub drive_error_noise: f64,
     /// Cut-off of a first-order low-pass on `M_ez` (`acceleration = "observer"`), Hz (0: none).
     pub output_hz: f64,
     /// A joint's low-passed `M_ez` jumps to the unfiltered value when they differ by more
@@ -219,7 +287,8 @@ impl Default for IcuConfig {
             filter_stages: 2,
             base_acceleration: true,
             base_filter_hz: 10.0,
-            observer_hz: 20.0,
+            jerk_noise: 30.0,
+            drive_error_noise: 1.0,
             output_hz: 60.0,
             output_jump_nm: 2.0,
             tare_s: 1.0,
@@ -249,7 +318,8 @@ impl IcuConfig {
         }
         positive("sim.icu.filter_hz", self.filter_hz)?;
         positive("sim.icu.base_filter_hz", self.base_filter_hz)?;
-        positive("sim.icu.observer_hz", self.observer_hz)?;
+        positive("sim.icu.jerk_noise", self.jerk_noise)?;
+        positive("sim.icu.drive_error_noise", self.drive_error_noise)?;
         non_negative("sim.icu.output_hz", self.output_hz)?;
         non_negative("sim.icu.output_jump_nm", self.output_jump_nm)?;
         if !(1..=2).contains(&self.filter_stages) {
@@ -311,14 +381,23 @@ impl<const N: usize> LowPass<N> {
     }
 }
 
+/// The drive filter's joint-space inertia is computed again every this many periods.
+const INERTIA_EVERY: usize = 20;
+
 /// The ICU with its filters.
 #[derive(Debug, Clone)]
 pub struct Icu {
     cfg: IcuConfig,
+    /// The tachometers' and torque sensors' standard deviations (their data sheet), rad/s and
+    /// N·m.
+    sensor_noise: (f64, f64),
     /// The filter of the measured signals (built at the first measurement).
     filter: Option<LowPass<18>>,
-    /// The rate observer (`acceleration = "observer"`).
-    observer: RateObserver,
+    /// The drive filter (`acceleration = "observer"`).
+    observer: DriveFilter,
+    /// The inverse of the joint-space inertia with the rotors, and the periods until it is
+    /// computed again (the configuration changes slowly).
+    inertia: (Matrix6<f64>, usize),
     /// The low-pass on `M_ez` (`acceleration = "observer"`, `output_hz > 0`).
     output: Option<(JointVector, JointVector)>,
     /// The free-space offset of `M_ez`, N·m.
@@ -332,12 +411,15 @@ pub struct Icu {
 }
 
 impl Icu {
-    /// An ICU that has seen no measurement yet.
-    pub fn new(cfg: &IcuConfig) -> Self {
+    /// An ICU that has seen no measurement yet, for the sensors `sensors` (the drive filter
+    /// weighs them by their noise).
+    pub fn new(cfg: &IcuConfig, sensors: &SensorConfig) -> Self {
         Icu {
             cfg: *cfg,
+            sensor_noise: (sensors.joint_rate_noise_rad_s, sensors.torque_noise_nm),
             filter: None,
-            observer: RateObserver::default(),
+            observer: DriveFilter::default(),
+            inertia: (Matrix6::zeros(), 0),
             output: None,
             offset: JointVector::zeros(),
             quiet_offset: JointVector::zeros(),
@@ -381,9 +463,28 @@ impl Icu {
             Acceleration::Commanded => (drive.commanded, m.m_dz),
             Acceleration::Measured => (dy.fixed_rows::<6>(0) / dt, y.fixed_rows::<6>(9).into_owned()),
             Acceleration::Observer => {
-                let (qdd, _) =
-                    self.observer
-                        .update(arm, &m.qd, &m.m_dz, drive.torque.as_ref(), cfg.observer_hz, dt);
+                let noise = DriveNoise {
+                    rate: self.sensor_noise.0,
+                    torque: self.sensor_noise.1,
+                    jerk: cfg.jerk_noise,
+                    drive_error: cfg.drive_error_noise,
+                };
+                if self.inertia.1 == 0 {
+                    self.inertia = (
+                        arm.mass_matrix(&m.q).try_inverse().unwrap_or_else(Matrix6::zeros),
+                        INERTIA_EVERY,
+                    );
+                }
+                self.inertia.1 -= 1;
+                let (qdd, _) = self.observer.update(
+                    arm,
+                    &self.inertia.0,
+                    &m.qd,
+                    &m.m_dz,
+                    drive.torque.as_ref(),
+                    &noise,
+                    dt,
+                );
                 (qdd, m.m_dz)
             }
         };
@@ -581,10 +682,11 @@ mod tests {
             torque: None,
         };
         for (tare_s, free_space_left) in [(1.0, 0.0), (0.0, 1.0)] {
-            let mut icu = Icu::new(&IcuConfig {
+            let cfg = IcuConfig {
                 tare_s,
                 ..IcuConfig::default()
-            });
+            };
+            let mut icu = Icu::new(&cfg, &SensorConfig::default());
             let mut id = None;
             for _ in 0..8000 {
                 id = Some(icu.identify(&arm, &meas(m_wz + b), &drive, &base, true, dt));
@@ -677,10 +779,11 @@ mod tests {
         let dt = 1e-3;
         let f_step = Vector3::new(20.0, -10.0, 40.0);
         let run = |acceleration: Acceleration| {
-            let mut icu = Icu::new(&IcuConfig {
+            let cfg = IcuConfig {
                 acceleration,
                 ..IcuConfig::default()
-            });
+            };
+            let mut icu = Icu::new(&cfg, &SensorConfig::default());
             let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(5);
             let q0 = JointVector::new(0.3, 0.9, -2.0, 0.4, 0.7, -0.5);
             let w = JointVector::repeat(0.1);
