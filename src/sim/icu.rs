@@ -173,6 +173,7 @@ impl DriveFilter {
             noise.jerk.powi(2) * dt,
             noise.drive_error.powi(2) * dt,
         ));
+        let first = self.state.is_none();
         let (joints, tau_last) = self.state.get_or_insert_with(|| {
             // The acceleration is unknown at the start (the first drive equation gives it); the
             // drive model is trusted, its error learnt as it walks.
@@ -199,8 +200,15 @@ impl DriveFilter {
                 dt
             };
             let phi = Matrix3::new(1.0, reach, 0.0, 0.0, decay, 0.0, 0.0, 0.0, 1.0);
-            let x_prior = phi * *x + Vector3::new(0.0, jump[i], 0.0);
-            let p_prior = phi * *p * phi.transpose() + q;
+            // The first measurement opens the filter: nothing to predict.
+            let (x_prior, p_prior) = if first {
+                (*x, *p)
+            } else {
+                (
+                    phi * *x + Vector3::new(0.0, jump[i], 0.0),
+                    phi * *p * phi.transpose() + q,
+                )
+            };
             let z = Vector2::new(qd[i], tau[i] - m_dz[i]);
             // Iterated update: the friction linearised at the latest estimate of `v`.
             let mut xi = x_prior;
