@@ -20,7 +20,14 @@
 //! the equation as `(1 + M_ii/I_a,i)` times itself, and a first-order `output_hz` low-pass
 //! takes it down, with a joint's output jumping to the unfiltered value when they part by more
 //! than `output_jump_nm` (a step — the friction at the tool flipping — passes at once). The base
-//! acceleration (gyro rates' derivative, accelerometers) passes `base_filter_hz`.
+//! acceleration (gyro rates' derivative, accelerometers) passes `base_filter_hz`; on a vehicle
+//! ([`Icu::on_vehicle`]) the arm's own reaction is added at once, a complementary filter: at
+//! constant external forces the vehicle accelerates by `−H_vv⁻¹ H_vq q̈` (the blocks of the whole
+//! system's inertia), and the high-pass of that (the part the filtered sensors do not show yet)
+//! joins their low-pass. The arm's drive torques step at every vision fix (the set-points
+//! jump), the shoulder's reaction turns the vehicle at once, and the gyros' filtered derivative
+//! took some 30 ms to follow it: the inertial moments of that turning were the larger part of
+//! the identification error in contact.
 //!
 //! `acceleration = "measured"` takes the tachometer rates' derivative through a low-pass of
 //! `filter_stages` first-order stages ([`LowPass`]), and `M_dz` (and the vehicle's rates and
@@ -58,6 +65,7 @@ use crate::arm::{Arm, JointVector};
 use crate::config::{non_negative, positive};
 use crate::error::Result;
 use crate::integrate::{lag_gain, lag_gain_hz};
+use crate::multibody::{GenMatrix, Multibody};
 use crate::spatial_algebra::Motion;
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix3x2, Matrix6, SVector, Vector2, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
@@ -122,9 +130,10 @@ pub struct DriveNoise {
 /// opens, clipped to the torque limit, minus the torque sensor; `F` the drive friction of the
 /// controller's model).
 ///
-/// The prediction is the arm's own: with `H` the joint-space inertia including the rotors,
-/// a change `Δτ` of the drive torques at the period's start makes the accelerations jump by
-/// `H⁻¹ Δτ` (friction, external and bias moments do not jump), and over the period the
+/// The prediction is the arm's own: with `H` the inertia including the rotors (the whole
+/// vehicle-manipulator system's on a vehicle), a change `Δτ` of the drive torques at the
+/// period's start makes the joint accelerations jump by the joints' rows of `H⁻¹ [0; Δτ]`
+/// (friction, external and bias forces do not jump), and over the period the
 /// friction's slope `F′` damps each joint's acceleration, `ȧ = −(F′/H_ii) a`, which `v`
 /// integrates; `a` and `d` also walk (white jerk, `jerk`; the drive error, `drive_error`).
 /// The smoothed Coulomb friction is steep near rest (`dt F′/I_a` above 1 on the PUMA's
@@ -133,40 +142,37 @@ pub struct DriveNoise {
 /// (iterated) and weighs the prediction, the equation and the tachometer by their variances.
 #[derive(Debug, Clone, Default)]
 pub struct DriveFilter {
-    /// Per joint: the state `(v, a, d)` and its covariance; and the clipped drive torques of the
-    /// last period.
-    state: Option<([JointState; 6], JointVector)>,
+    /// Per joint: the state `(v, a, d)` and its covariance.
+    state: Option<[JointState; 6]>,
 }
 
 /// One joint's `(v, a, d)` and its covariance.
 type JointState = (Vector3<f64>, Matrix3<f64>);
 
 impl DriveFilter {
+    /// Forgets the state (the drive torques are not known).
+    pub fn reset(&mut self) {
+        self.state = None;
+    }
+
     /// The joint accelerations and rates at the measurement: the rates `qd`, the torque
-    /// sensors `m_dz` and the drive torques `torque` (`None`: not known yet, the rates are
-    /// taken as the state and the acceleration as zero), with `arm` the controller's model,
-    /// `h_inv` the inverse of its joint-space inertia (with the rotors) and `noise` what the
-    /// filter assumes.
+    /// sensors `m_dz` and the drive torques `tau` (clipped to the limits), with `arm` the
+    /// controller's model, `jump` the accelerations' jump that the change of `tau` since the
+    /// last period makes (`H⁻¹ Δτ`), `h_inv_diag` the diagonal of `H⁻¹` (`H` the inertia with
+    /// the rotors) and `noise` what the filter assumes.
     #[allow(clippy::too_many_arguments)]
     pub fn update(
         &mut self,
         arm: &Arm,
-        h_inv: &Matrix6<f64>,
+        tau: &JointVector,
+        jump: &JointVector,
+        h_inv_diag: &JointVector,
         qd: &JointVector,
         m_dz: &JointVector,
-        torque: Option<&JointVector>,
         noise: &DriveNoise,
         dt: f64,
     ) -> (JointVector, JointVector) {
-        let Some(torque) = torque else {
-            self.state = None;
-            return (JointVector::zeros(), *qd);
-        };
         let eps = arm.coulomb_smoothing;
-        let tau = JointVector::from_fn(|i, _| {
-            let lim = arm.links[i].torque_limit;
-            torque[i].clamp(-lim, lim)
-        });
         let r = Matrix2::new(noise.rate.powi(2), 0.0, 0.0, noise.torque.powi(2));
         let q = Matrix3::from_diagonal(&Vector3::new(
             0.0,
@@ -174,25 +180,23 @@ impl DriveFilter {
             noise.drive_error.powi(2) * dt,
         ));
         let first = self.state.is_none();
-        let (joints, tau_last) = self.state.get_or_insert_with(|| {
+        let joints = self.state.get_or_insert_with(|| {
             // The acceleration is unknown at the start (the first drive equation gives it); the
             // drive model is trusted, its error learnt as it walks.
             let p0 = Matrix3::from_diagonal(&Vector3::new(noise.rate.powi(2), 1e4, noise.torque.powi(2)));
-            (std::array::from_fn(|i| (Vector3::new(qd[i], 0.0, 0.0), p0)), tau)
+            std::array::from_fn(|i| (Vector3::new(qd[i], 0.0, 0.0), p0))
         });
-        let jump = h_inv * (tau - *tau_last);
-        *tau_last = tau;
         let mut acc = JointVector::zeros();
         let mut rate = *qd;
         for (i, (x, p)) in joints.iter_mut().enumerate() {
             let l = &arm.links[i];
             let ia = l.armature;
-            if ia <= 0.0 || h_inv[(i, i)] <= 0.0 {
+            if ia <= 0.0 || h_inv_diag[i] <= 0.0 {
                 // No drive model: the tachometers alone.
                 continue;
             }
             // Over the period: `ȧ = −λ a`, `λ = F′/H_ii` (with `1/H_ii ≈ (H⁻¹)_ii`).
-            let lambda = l.friction(x[0], Some(eps)).1 * h_inv[(i, i)];
+            let lambda = l.friction(x[0], Some(eps)).1 * h_inv_diag[i];
             let decay = (-lambda * dt).exp();
             let reach = if lambda * dt > 1e-9 {
                 -(-lambda * dt).exp_m1() / lambda
@@ -392,6 +396,15 @@ impl<const N: usize> LowPass<N> {
 /// The drive filter's joint-space inertia is computed again every this many periods.
 const INERTIA_EVERY: usize = 20;
 
+/// The base's acceleration steps the drive torques' changes made (`ν̇`, `C` axes), summed
+/// (now and a period ago), and the base filter's low-pass of them.
+#[derive(Debug, Clone, Default)]
+struct BaseSteps {
+    sum: Vector6<f64>,
+    last: Vector6<f64>,
+    filter: Option<LowPass<6>>,
+}
+
 /// The ICU with its filters.
 #[derive(Debug, Clone)]
 pub struct Icu {
@@ -403,9 +416,19 @@ pub struct Icu {
     filter: Option<LowPass<18>>,
     /// The drive filter (`acceleration = "observer"`).
     observer: DriveFilter,
-    /// The inverse of the joint-space inertia with the rotors, and the periods until it is
+    /// The controller's model of the whole vehicle-manipulator system, when the arm is on a
+    /// vehicle (`None`: on a fixed base).
+    system: Option<Box<Multibody>>,
+    /// The inverse of the inertia with the rotors (the whole system's on a vehicle, the
+    /// arm's on a fixed base), the vehicle's acceleration per joint acceleration at constant
+    /// external forces (`−H_vv⁻¹ H_vq`; zero on a fixed base), and the periods until they are
     /// computed again (the configuration changes slowly).
-    inertia: (Matrix6<f64>, usize),
+    inertia: (GenMatrix, Matrix6<f64>, usize),
+    /// The drive torques of the last period, clipped to the limits.
+    tau_last: Option<JointVector>,
+    /// The base's acceleration steps the drive torques' changes made, summed (`ν̇`, `C` axes),
+    /// and the base filter's low-pass of them: the part the filtered sensors do not show yet.
+    base_steps: BaseSteps,
     /// The low-pass on `M_ez` (`acceleration = "observer"`, `output_hz > 0`).
     output: Option<(JointVector, JointVector)>,
     /// The free-space offset of `M_ez`, N·m.
@@ -427,13 +450,25 @@ impl Icu {
             sensor_noise: (sensors.joint_rate_noise_rad_s, sensors.torque_noise_nm),
             filter: None,
             observer: DriveFilter::default(),
-            inertia: (Matrix6::zeros(), 0),
+            system: None,
+            inertia: (GenMatrix::zeros(), Matrix6::zeros(), 0),
+            tau_last: None,
+            base_steps: BaseSteps::default(),
             output: None,
             offset: JointVector::zeros(),
             quiet_offset: JointVector::zeros(),
             touched: false,
             touch_force: None,
         }
+    }
+
+    /// The ICU of an arm on the vehicle of `system` (the controller's model): a change of the
+    /// drive torques moves the vehicle too (the arm's reaction), and the base acceleration of
+    /// the IDP takes the steps it makes at once (a complementary filter: the gyros' and
+    /// accelerometers' low-pass plus the high-pass of the steps the model predicts).
+    pub fn on_vehicle(mut self, system: &Multibody) -> Self {
+        self.system = Some(Box::new(system.clone()));
+        self
     }
 
     /// Eq. (1)–(12) for the measurements `m` of a control period `dt`, with `arm` the
@@ -477,23 +512,55 @@ impl Icu {
                     jerk: cfg.jerk_noise,
                     drive_error: cfg.drive_error_noise,
                 };
-                if self.inertia.1 == 0 {
+                if self.inertia.2 == 0 {
+                    let (h_inv, reaction) = match &self.system {
+                        Some(system) => {
+                            let h = system.mass_matrix(&m.q);
+                            let hvv = h.fixed_view::<6, 6>(0, 0).into_owned();
+                            let reaction = hvv
+                                .cholesky()
+                                .map(|c| -c.solve(&h.fixed_view::<6, 6>(0, 6).into_owned()));
+                            (h.try_inverse(), reaction)
+                        }
+                        None => (
+                            arm.mass_matrix(&m.q).try_inverse().map(|h| {
+                                let mut g = GenMatrix::zeros();
+                                g.fixed_view_mut::<6, 6>(6, 6).copy_from(&h);
+                                g
+                            }),
+                            None,
+                        ),
+                    };
                     self.inertia = (
-                        arm.mass_matrix(&m.q).try_inverse().unwrap_or_else(Matrix6::zeros),
+                        h_inv.unwrap_or_else(GenMatrix::zeros),
+                        reaction.unwrap_or_else(Matrix6::zeros),
                         INERTIA_EVERY,
                     );
                 }
-                self.inertia.1 -= 1;
-                let (qdd, _) = self.observer.update(
-                    arm,
-                    &self.inertia.0,
-                    &m.qd,
-                    &m.m_dz,
-                    drive.torque.as_ref(),
-                    &noise,
-                    dt,
-                );
-                (qdd, m.m_dz)
+                self.inertia.2 -= 1;
+                match drive.torque {
+                    None => {
+                        self.observer.reset();
+                        (JointVector::zeros(), m.m_dz)
+                    }
+                    Some(torque) => {
+                        let tau = JointVector::from_fn(|i, _| {
+                            let lim = arm.links[i].torque_limit;
+                            torque[i].clamp(-lim, lim)
+                        });
+                        let h_inv = &self.inertia.0;
+                        let change = tau - self.tau_last.unwrap_or(tau);
+                        self.tau_last = Some(tau);
+                        let jump = h_inv.fixed_view::<6, 6>(6, 6) * change;
+                        let diag = JointVector::from_fn(|i, _| h_inv[(6 + i, 6 + i)]);
+                        let (qdd, _) = self
+                            .observer
+                            .update(arm, &tau, &jump, &diag, &m.qd, &m.m_dz, &noise, dt);
+                        self.base_steps.last = self.base_steps.sum;
+                        self.base_steps.sum = self.inertia.1 * qdd;
+                        (qdd, m.m_dz)
+                    }
+                }
             }
         };
         let mut base = *base;
@@ -503,7 +570,20 @@ impl Icu {
             let g_body = arm.mount.rot.transpose() * base.gravity;
             let lin = y.fixed_rows::<3>(15) + g_body;
             let ang = dy.fixed_rows::<3>(6) / dt;
-            let nu_dot = Vector6::new(lin.x, lin.y, lin.z, ang.x, ang.y, ang.z);
+            let mut nu_dot = Vector6::new(lin.x, lin.y, lin.z, ang.x, ang.y, ang.z);
+            if self.system.is_some() && cfg.acceleration == Acceleration::Observer {
+                // The accelerometers read a step at once, the gyros' backward difference a
+                // period later: the steps pass the base filter lined up with each, and what has
+                // not come through it yet is added.
+                let steps = &mut self.base_steps;
+                let (sum, last) = (steps.sum, steps.last);
+                let seen = steps
+                    .filter
+                    .get_or_insert_with(|| LowPass::new(cfg.base_filter_hz, cfg.filter_stages, dt))
+                    .update(&Vector6::new(sum[0], sum[1], sum[2], last[3], last[4], last[5]))
+                    .0;
+                nu_dot += sum - seen;
+            }
             base.acceleration = arm.mount.motion(&Motion::from_vector6(&nu_dot));
         }
         let m_wz = arm.inverse_dynamics(&m.q, &m.qd, &qdd, &base, None).tau_rigid;
