@@ -854,66 +854,93 @@ mod tests {
         }
     }
 
-    /// An arm on a fixed base moving every joint at 0.1 rad/s (out of the friction's steep
-    /// region) under a PD loop, its plant the controller's own model integrated at 1 kHz, with
-    /// the sensors' noise (0.05 N·m, 1 mrad/s); at 0.3 s a 46 N tool force appears at once. The
+    /// An arm on a fixed base under a PD loop holding every joint at the rate `w` from
+    /// `q0`, its plant the controller's own model (integrated at 10 kHz, controlled and
+    /// measured at 1 kHz), with the sensors' noise
+    /// (0.05 N·m, 1 mrad/s); after 0.3 s the tool force `f_step` appears at once and the drive
+    /// torques step by `tau_step`. The largest error of `M_ez` at each period.
+    fn simulate(
+        acceleration: Acceleration,
+        w: JointVector,
+        f_step: Vector3<f64>,
+        tau_step: JointVector,
+    ) -> Vec<f64> {
+        let arm = arm();
+        let base = BaseMotion::fixed(arm.level_gravity(9.81));
+        let dt = 1e-3;
+        let cfg = IcuConfig {
+            acceleration,
+            ..IcuConfig::default()
+        };
+        let mut icu = Icu::new(&cfg, &SensorConfig::default());
+        let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(5);
+        let q0 = JointVector::new(0.3, 0.9, -2.0, 0.4, 0.7, -0.5);
+        let (mut q, mut qd) = (q0, w);
+        let mut errors = Vec::new();
+        for k in 0..500 {
+            let t = k as f64 * dt;
+            let (f_imp, extra) = if t > 0.3 {
+                (f_step, tau_step)
+            } else {
+                (Vector3::zeros(), JointVector::zeros())
+            };
+            let jv = arm.jacobian(&q).fixed_rows::<3>(0).into_owned();
+            let m_ez = jv.transpose() * f_imp;
+            let hold = arm.inverse_dynamics(&q, &qd, &JointVector::zeros(), &base, None);
+            let tau = hold.tau_rigid
+                + arm.friction(&w, Some(arm.coulomb_smoothing))
+                + (q0 + w * t - q) * 400.0
+                + (w - qd) * 40.0
+                + extra;
+            let qdd = arm.forward_dynamics(&q, &qd, &(tau - m_ez), &base).unwrap();
+            let shaft =
+                tau - arm.armature().component_mul(&qdd) - arm.friction(&qd, Some(arm.coulomb_smoothing));
+            let meas = Measurements {
+                q,
+                qd: qd.map(|v| v + 1e-3 * gaussian(&mut rng)),
+                m_dz: shaft.map(|v| v + 0.05 * gaussian(&mut rng)),
+                attitude: nalgebra::UnitQuaternion::identity(),
+                omega: Vector3::zeros(),
+                specific_force: -(arm.mount.rot.transpose() * base.gravity),
+                position: Vector3::zeros(),
+                position_time: 0.0,
+            };
+            let drive = Drive {
+                commanded: qdd,
+                torque: Some(tau),
+            };
+            let id = icu.identify(&arm, &meas, &drive, &base, false, dt);
+            errors.push((id.m_ez - m_ez).amax());
+            // Ten steps a period: the steep friction makes one Euler step of 1 ms too coarse.
+            let h = dt / 10.0;
+            for sub in 0..10 {
+                let qdd = if sub == 0 {
+                    qdd
+                } else {
+                    arm.forward_dynamics(&q, &qd, &(tau - m_ez), &base).unwrap()
+                };
+                qd += qdd * h;
+                q += qd * h;
+            }
+        }
+        errors
+    }
+
+    fn worst(e: &[f64]) -> f64 {
+        e.iter().fold(0.0_f64, |a, &b| a.max(b))
+    }
+
+    /// Every joint moving at 0.1 rad/s (out of the friction's steep region) in [`simulate`]; at
+    /// 0.3 s a 46 N tool force appears at once. The
     /// observer's `M_ez` matches `J_vᵀ F_imp` within 1 N·m before the step, at the first reading
     /// after it and from 5 ms on; the measured acceleration's filter (two 30 Hz stages, 10.6 ms
     /// of delay) still misses most of the step 5 ms after it.
     #[test]
     fn the_observer_passes_a_step_of_the_tool_force_at_once() {
-        let arm = arm();
-        let base = BaseMotion::fixed(arm.level_gravity(9.81));
-        let dt = 1e-3;
+        let w = JointVector::repeat(0.1);
         let f_step = Vector3::new(20.0, -10.0, 40.0);
-        let run = |acceleration: Acceleration| {
-            let cfg = IcuConfig {
-                acceleration,
-                ..IcuConfig::default()
-            };
-            let mut icu = Icu::new(&cfg, &SensorConfig::default());
-            let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(5);
-            let q0 = JointVector::new(0.3, 0.9, -2.0, 0.4, 0.7, -0.5);
-            let w = JointVector::repeat(0.1);
-            let (mut q, mut qd) = (q0, w);
-            let mut errors = Vec::new();
-            for k in 0..500 {
-                let t = k as f64 * dt;
-                let f_imp = if t > 0.3 { f_step } else { Vector3::zeros() };
-                let jv = arm.jacobian(&q).fixed_rows::<3>(0).into_owned();
-                let m_ez = jv.transpose() * f_imp;
-                let hold = arm.inverse_dynamics(&q, &qd, &JointVector::zeros(), &base, None);
-                let tau = hold.tau_rigid
-                    + arm.friction(&w, Some(arm.coulomb_smoothing))
-                    + (q0 + w * t - q) * 400.0
-                    + (w - qd) * 40.0;
-                let qdd = arm.forward_dynamics(&q, &qd, &(tau - m_ez), &base).unwrap();
-                let shaft =
-                    tau - arm.armature().component_mul(&qdd) - arm.friction(&qd, Some(arm.coulomb_smoothing));
-                let meas = Measurements {
-                    q,
-                    qd: qd.map(|v| v + 1e-3 * gaussian(&mut rng)),
-                    m_dz: shaft.map(|v| v + 0.05 * gaussian(&mut rng)),
-                    attitude: nalgebra::UnitQuaternion::identity(),
-                    omega: Vector3::zeros(),
-                    specific_force: -(arm.mount.rot.transpose() * base.gravity),
-                    position: Vector3::zeros(),
-                    position_time: 0.0,
-                };
-                let drive = Drive {
-                    commanded: qdd,
-                    torque: Some(tau),
-                };
-                let id = icu.identify(&arm, &meas, &drive, &base, false, dt);
-                errors.push((id.m_ez - m_ez).amax());
-                qd += qdd * dt;
-                q += qd * dt;
-            }
-            errors
-        };
-        let observer = run(Acceleration::Observer);
-        let measured = run(Acceleration::Measured);
-        let worst = |e: &[f64]| e.iter().fold(0.0_f64, |a, &b| a.max(b));
+        let observer = simulate(Acceleration::Observer, w, f_step, JointVector::zeros());
+        let measured = simulate(Acceleration::Measured, w, f_step, JointVector::zeros());
         // Settled, before the step and from 5 ms after it.
         assert!(worst(&observer[100..300]) < 1.0, "{}", worst(&observer[100..300]));
         assert!(worst(&observer[306..]) < 1.0, "{}", worst(&observer[306..]));
@@ -922,5 +949,25 @@ mod tests {
         // than 5 N·m.
         assert!(observer[301] < 1.0, "{}", observer[301]);
         assert!(measured[306] > 5.0, "{}", measured[306]);
+    }
+
+    /// The arm held at rest, every joint in the steep region of its smoothed Coulomb friction
+    /// (`dt F′/I_a` ≈ 1.6 on the shoulder), and the drive torques stepping at 0.3 s — the
+    /// shoulder by 15 N·m, below its Coulomb level, the elbow by 10 N·m — with no tool force:
+    /// the joints' accelerations jump (`H⁻¹ Δτ`) and the friction takes the torque within a few
+    /// milliseconds. The identified moments stay within 1 N·m of zero throughout (0.43 N·m at
+    /// most here; in the bottle run such steps on a stuck shoulder made the earlier observer,
+    /// which predicted the rate at the measurement with the torque of the period it opens,
+    /// read 8-14 N·m).
+    #[test]
+    fn a_drive_torque_step_on_joints_held_by_friction_is_no_external_moment() {
+        let tau_step = JointVector::new(15.0, 0.0, 10.0, 0.0, 0.0, 0.0);
+        let errors = simulate(
+            Acceleration::Observer,
+            JointVector::zeros(),
+            Vector3::zeros(),
+            tau_step,
+        );
+        assert!(worst(&errors[100..]) < 1.0, "{}", worst(&errors[100..]));
     }
 }
