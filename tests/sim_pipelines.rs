@@ -105,8 +105,10 @@ fn bottle_cleaning_end_to_end() {
     let csv = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
     let rows = csv.lines().filter(|l| !l.starts_with('#')).count() - 1;
     // The joint-moment identification (M_ez from the torque sensors and the controller's model)
-    // against the plant's true external moments, in contact: the largest error over the six
-    // joints per row, typically within the seed's 0.5 N·m.
+    // against the plant's true external moments, in the contact phase: the largest error over
+    // the six joints per row, typically well within the seed's 0.5 N·m (0.21-0.23 on seeds
+    // 1-3; the torque sensors' noise through the drive equation and the model's heavier links
+    // set the floor).
     let mut lines = csv.lines().filter(|l| !l.starts_with('#'));
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
@@ -127,7 +129,21 @@ fn bottle_cleaning_end_to_end() {
         .collect();
     errors.sort_by(f64::total_cmp);
     let median = errors[errors.len() / 2];
-    assert!(median <= 0.5, "identification error median {median} N·m");
+    assert!(median <= 0.3, "identification error median {median} N·m");
+    // The same at every control period in contact (the summary): its 95th percentile and its
+    // largest value (0.53-0.55 and 2.4-2.5 N·m on seeds 1-3; 0.63-0.67 and 3.8-6.7 without the
+    // vehicle's reaction to the drive torques in the base acceleration, 0.77-0.91 and 7.9-10.2
+    // with the earlier observer).
+    let id = |key: &str| sim[key].as_f64().unwrap();
+    let (median, p95, max) = (
+        id("moment_id_error_contact_median_nm"),
+        id("moment_id_error_contact_p95_nm"),
+        id("moment_id_error_contact_max_nm"),
+    );
+    assert!(
+        median <= 0.3 && p95 <= 0.6 && max <= 3.2 && max <= id("moment_id_error_max_nm"),
+        "identification error in contact: median {median}, p95 {p95}, max {max} N·m"
+    );
     let simulated = sim["simulated_s"].as_f64().unwrap();
     assert!(
         rows as f64 >= 100.0 * simulated - 1.0,
@@ -140,6 +156,7 @@ fn bottle_cleaning_end_to_end() {
         "force_settled_mean_n",
         "auv_deviation_max_m",
         "moment_id_error_max_nm",
+        "moment_id_error_contact_p95_nm",
     ] {
         assert_eq!(again["sim"][key], sim[key], "{key}");
     }

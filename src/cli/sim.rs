@@ -110,6 +110,17 @@ pub fn sim_text(s: &SimSummary) -> String {
         "  identified joint moments within {:.3} N·m, force along k within {:.2} N",
         s.figures.moment_id_error_max_nm, s.figures.force_id_error_max_n
     );
+    let f = &s.figures;
+    if let (Some(median), Some(p95), Some(max)) = (
+        f.moment_id_error_contact_median_nm,
+        f.moment_id_error_contact_p95_nm,
+        f.moment_id_error_contact_max_nm,
+    ) {
+        let _ = writeln!(
+            t,
+            "  in contact: joint moments' error median {median:.3}, p95 {p95:.3}, max {max:.3} N·m"
+        );
+    }
     t
 }
 

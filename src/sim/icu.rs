@@ -10,14 +10,24 @@
 //! The joint accelerations (`acceleration = "observer"`, the default) come from the drives' own
 //! equation: the rotor turns under the drive torque against the torque sensor and the drive's
 //! friction, `I_a q̈ = τ − M_dz − F(q̇)`, with `τ` the torque the joint controllers commanded
-//! for the period and `I_a`, `F` the controller's model of the drives ([`RateObserver`]; a
-//! per-joint observer on the tachometers takes the equation's slow error). A step of the
+//! for the period and `I_a`, `F` the controller's model of the drives, fused with the
+//! tachometers by a per-joint Kalman filter ([`DriveFilter`]) whose prediction is the arm's
+//! own: a change of the drive torques makes the accelerations jump by `H⁻¹ Δτ` (`H` the
+//! joint-space inertia with the rotors, computed every few periods), the friction's slope damps
+//! them over the period, and the filter learns the drive model's slow torque error. A step of the
 //! external moment shows in `M_dz` and through it in `q̈` within the period, so `M_ez` needs no
 //! filter that lines `M_dz` up with a lagging derivative; the torque sensors' noise goes through
 //! the equation as `(1 + M_ii/I_a,i)` times itself, and a first-order `output_hz` low-pass
 //! takes it down, with a joint's output jumping to the unfiltered value when they part by more
 //! than `output_jump_nm` (a step — the friction at the tool flipping — passes at once). The base
-//! acceleration (gyro rates' derivative, accelerometers) passes `base_filter_hz`.
+//! acceleration (gyro rates' derivative, accelerometers) passes `base_filter_hz`; on a vehicle
+//! ([`Icu::on_vehicle`]) the arm's own reaction is added at once, a complementary filter: at
+//! constant external forces the vehicle accelerates by `−H_vv⁻¹ H_vq q̈` (the blocks of the whole
+//! system's inertia), and the high-pass of that (the part the filtered sensors do not show yet)
+//! joins their low-pass. The arm's drive torques step at every vision fix (the set-points
+//! jump), the shoulder's reaction turns the vehicle at once, and the gyros' filtered derivative
+//! took some 30 ms to follow it: the inertial moments of that turning were the larger part of
+//! the identification error in contact.
 //!
 //! `acceleration = "measured"` takes the tachometer rates' derivative through a low-pass of
 //! `filter_stages` first-order stages ([`LowPass`]), and `M_dz` (and the vehicle's rates and
@@ -49,14 +59,15 @@
 //! [`ForceMethod::LeastSquares`] (the default) uses all six equations,
 //! `(J_v J_vᵀ) F = J_v M_ez`, a 3 × 3 solve. Neither inverts the Jacobian.
 
-use super::sensors::Measurements;
+use super::sensors::{Measurements, SensorConfig};
 use crate::arm::dynamics::BaseMotion;
 use crate::arm::{Arm, JointVector};
 use crate::config::{non_negative, positive};
 use crate::error::Result;
 use crate::integrate::{lag_gain, lag_gain_hz};
+use crate::multibody::{GenMatrix, Multibody};
 use crate::spatial_algebra::Motion;
-use nalgebra::{Matrix3, SVector, Vector3, Vector6};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix3x2, Matrix6, SVector, Vector2, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
 /// How the tool force is computed from the external joint moments.
@@ -81,7 +92,7 @@ pub enum Acceleration {
     Commanded,
     /// The drives' own equation, `I_a q̈ = τ − M_dz − friction(q̇)` (the rotor inertias, the
     /// commanded drive torque, the torque sensors, the drives' friction — all of the
-    /// controller's model), corrected by a rate observer on the tachometers ([`RateObserver`]):
+    /// controller's model), fused with the tachometers by a Kalman filter ([`DriveFilter`]):
     /// a step of the external moment reaches `q̈` and `M_dz` within the period, and nothing
     /// is differentiated.
     #[default]
@@ -98,67 +109,132 @@ pub struct Drive {
     pub torque: Option<JointVector>,
 }
 
-/// A per-joint observer of the joint rate `v` and of the acceleration `b` the drive model does
-/// not explain. The drive's equation `I_a v̇ = w − F(v) + I_a b`, with `w = τ − M_dz` (the
-/// drive torque commanded for the period the measurement opens, clipped to the torque limit,
-/// minus the torque sensor) and `F` the drives' friction, predicts the rate by a backward-Euler
-/// step from the last estimate (the smoothed Coulomb friction makes the equation stiff near
-/// rest: `dt F′/I_a` exceeds 1), `v⁻ = v + dt ((w − F(v⁻))/I_a + b)`; the acceleration is
-/// `(v⁻ − v)/dt`. The tachometer corrects: `v = v⁻ + l₁ e`, `b += l₂ e` with `e` the measured
-/// rate minus `v⁻` and `l₁ = 1 − p²`, `l₂ = (1 − p)²/dt` (both poles of the error dynamics at
-/// `p = exp(−2π hz dt)`). A step of the external moment reaches the acceleration at once
-/// (through `M_dz`), and nothing is differentiated.
-#[derive(Debug, Clone, Default)]
-pub struct RateObserver {
-    /// The rate and the unexplained acceleration.
-    state: Option<(JointVector, JointVector)>,
+/// The noise a [`DriveFilter`] assumes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DriveNoise {
+    /// Standard deviation of the tachometers, rad/s.
+    pub rate: f64,
+    /// Standard deviation of the torque sensors, N·m.
+    pub torque: f64,
+    /// Intensity of the white jerk that moves the joint acceleration, rad/s^2.5 (`√S`: the
+    /// acceleration's change over `dt` has the deviation `jerk √dt`).
+    pub jerk: f64,
+    /// Intensity of the random walk of the drive model's torque error, N·m/√s.
+    pub drive_error: f64,
 }
 
-impl RateObserver {
+/// A per-joint Kalman filter of the joint rate `v`, the joint acceleration `a` and the drive
+/// model's torque error `d` at each measurement, fusing the tachometer (`v` plus noise) with the
+/// drive's own equation at the measurement's instant, `w = I_a a + F(v) + d` plus the torque
+/// sensor's noise (`w = τ − M_dz`: the drive torque commanded for the period the measurement
+/// opens, clipped to the torque limit, minus the torque sensor; `F` the drive friction of the
+/// controller's model).
+///
+/// The prediction is the arm's own: with `H` the inertia including the rotors (the whole
+/// vehicle-manipulator system's on a vehicle), a change `Δτ` of the drive torques at the
+/// period's start makes the joint accelerations jump by the joints' rows of `H⁻¹ [0; Δτ]`
+/// (friction, external and bias forces do not jump), and over the period the
+/// friction's slope `F′` damps each joint's acceleration, `ȧ = −(F′/H_ii) a`, which `v`
+/// integrates; `a` and `d` also walk (white jerk, `jerk`; the drive error, `drive_error`).
+/// The smoothed Coulomb friction is steep near rest (`dt F′/I_a` above 1 on the PUMA's
+/// shoulder): there the drive equation ties `a` to `v` so tightly that the tachometer's noise
+/// through `F′/I_a` would swamp `a`; the filter linearises `F` at its latest estimate of `v`
+/// (iterated) and weighs the prediction, the equation and the tachometer by their variances.
+#[derive(Debug, Clone, Default)]
+pub struct DriveFilter {
+    /// Per joint: the state `(v, a, d)` and its covariance.
+    state: Option<[JointState; 6]>,
+}
+
+/// One joint's `(v, a, d)` and its covariance.
+type JointState = (Vector3<f64>, Matrix3<f64>);
+
+impl DriveFilter {
+    /// Forgets the state (the drive torques are not known).
+    pub fn reset(&mut self) {
+        self.state = None;
+    }
+
     /// The joint accelerations and rates at the measurement: the rates `qd`, the torque
-    /// sensors `m_dz` and the drive torques `torque` (`None`: not known yet, the rates are
-    /// taken as the state and the acceleration as zero), with `arm` the controller's model and
-    /// `hz` the observer's bandwidth.
+    /// sensors `m_dz` and the drive torques `tau` (clipped to the limits), with `arm` the
+    /// controller's model, `jump` the accelerations' jump that the change of `tau` since the
+    /// last period makes (`H⁻¹ Δτ`), `h_inv_diag` the diagonal of `H⁻¹` (`H` the inertia with
+    /// the rotors) and `noise` what the filter assumes.
+    #[allow(clippy::too_many_arguments)]
     pub fn update(
         &mut self,
         arm: &Arm,
+        tau: &JointVector,
+        jump: &JointVector,
+        h_inv_diag: &JointVector,
         qd: &JointVector,
         m_dz: &JointVector,
-        torque: Option<&JointVector>,
-        hz: f64,
+        noise: &DriveNoise,
         dt: f64,
     ) -> (JointVector, JointVector) {
-        let Some(torque) = torque else {
-            self.state = Some((*qd, JointVector::zeros()));
-            return (JointVector::zeros(), *qd);
-        };
-        let (v, b) = self.state.get_or_insert((*qd, JointVector::zeros()));
         let eps = arm.coulomb_smoothing;
+        let r = Matrix2::new(noise.rate.powi(2), 0.0, 0.0, noise.torque.powi(2));
+        let q = Matrix3::from_diagonal(&Vector3::new(
+            0.0,
+            noise.jerk.powi(2) * dt,
+            noise.drive_error.powi(2) * dt,
+        ));
+        let first = self.state.is_none();
+        let joints = self.state.get_or_insert_with(|| {
+            // The acceleration is unknown at the start (the first drive equation gives it); the
+            // drive model is trusted, its error learnt as it walks.
+            let p0 = Matrix3::from_diagonal(&Vector3::new(noise.rate.powi(2), 1e4, noise.torque.powi(2)));
+            std::array::from_fn(|i| (Vector3::new(qd[i], 0.0, 0.0), p0))
+        });
         let mut acc = JointVector::zeros();
-        let mut prior = *v;
-        for i in 0..6 {
+        let mut rate = *qd;
+        for (i, (x, p)) in joints.iter_mut().enumerate() {
             let l = &arm.links[i];
-            let lim = l.torque_limit;
-            let w = torque[i].clamp(-lim, lim) - m_dz[i];
-            if l.armature <= 0.0 {
+            let ia = l.armature;
+            if ia <= 0.0 || h_inv_diag[i] <= 0.0 {
                 // No drive model: the tachometers alone.
                 continue;
             }
-            // Newton on g(x) = x − v − dt((w − F(x))/I_a + b), g′ = 1 + dt F′(x)/I_a ≥ 1.
-            let mut x = v[i];
-            for _ in 0..6 {
-                let (f, df) = l.friction(x, Some(eps));
-                let g = x - v[i] - dt * ((w - f) / l.armature + b[i]);
-                x -= g / (1.0 + dt * df / l.armature);
+            // Over the period: `ȧ = −λ a`, `λ = F′/H_ii` (with `1/H_ii ≈ (H⁻¹)_ii`).
+            let lambda = l.friction(x[0], Some(eps)).1 * h_inv_diag[i];
+            let decay = (-lambda * dt).exp();
+            let reach = if lambda * dt > 1e-9 {
+                -(-lambda * dt).exp_m1() / lambda
+            } else {
+                dt
+            };
+            let phi = Matrix3::new(1.0, reach, 0.0, 0.0, decay, 0.0, 0.0, 0.0, 1.0);
+            // The first measurement opens the filter: nothing to predict.
+            let (x_prior, p_prior) = if first {
+                (*x, *p)
+            } else {
+                (
+                    phi * *x + Vector3::new(0.0, jump[i], 0.0),
+                    phi * *p * phi.transpose() + q,
+                )
+            };
+            let z = Vector2::new(qd[i], tau[i] - m_dz[i]);
+            // Iterated update: the friction linearised at the latest estimate of `v`.
+            let mut xi = x_prior;
+            let mut gain = Matrix3x2::zeros();
+            let mut h = Matrix2x3::zeros();
+            for _ in 0..3 {
+                let (f, df) = l.friction(xi[0], Some(eps));
+                h = Matrix2x3::new(1.0, 0.0, 0.0, df, ia, 1.0);
+                let hx = Vector2::new(xi[0], ia * xi[1] + f + xi[2]);
+                let Some(s_inv) = (h * p_prior * h.transpose() + r).try_inverse() else {
+                    break;
+                };
+                gain = p_prior * h.transpose() * s_inv;
+                xi = x_prior + gain * (z - hx - h * (x_prior - xi));
             }
-            prior[i] = x;
-            acc[i] = (x - v[i]) / dt;
+            let ikh = Matrix3::identity() - gain * h;
+            *p = ikh * p_prior * ikh.transpose() + gain * r * gain.transpose();
+            *x = xi;
+            acc[i] = x[1];
+            rate[i] = x[0];
         }
-        let p = (-2.0 * std::f64::consts::PI * hz * dt).exp();
-        let e = qd - prior;
-        *v = prior + e * (1.0 - p * p);
-        *b += e * ((1.0 - p).powi(2) / dt);
-        (acc, *v)
+        (acc, rate)
     }
 }
 
@@ -189,8 +265,12 @@ pub struct IcuConfig {
     /// (`acceleration = "observer"`: the base acceleration of the IDP), Hz. The gyro rates'
     /// derivative is the noisiest input of the IDP (1 mrad/s on a vehicle arm's inertia).
     pub base_filter_hz: f64,
-    /// Bandwidth of the rate observer (`acceleration = "observer"`), Hz.
-    pub observer_hz: f64,
+    /// Intensity of the white jerk the drive filter assumes moves the joint accelerations
+    /// (`acceleration = "observer"`), rad/s^2.5.
+    pub jerk_noise: f64,
+    /// Intensity of the random walk of the drives' torque error (friction, rotor inertia) the
+    /// drive filter assumes (`acceleration = "observer"`), N·m/√s.
+    pub drive_error_noise: f64,
     /// Cut-off of a first-order low-pass on `M_ez` (`acceleration = "observer"`), Hz (0: none).
     pub output_hz: f64,
     /// A joint's low-passed `M_ez` jumps to the unfiltered value when they differ by more
@@ -219,7 +299,8 @@ impl Default for IcuConfig {
             filter_stages: 2,
             base_acceleration: true,
             base_filter_hz: 10.0,
-            observer_hz: 20.0,
+            jerk_noise: 30.0,
+            drive_error_noise: 1.0,
             output_hz: 60.0,
             output_jump_nm: 2.0,
             tare_s: 1.0,
@@ -249,7 +330,8 @@ impl IcuConfig {
         }
         positive("sim.icu.filter_hz", self.filter_hz)?;
         positive("sim.icu.base_filter_hz", self.base_filter_hz)?;
-        positive("sim.icu.observer_hz", self.observer_hz)?;
+        positive("sim.icu.jerk_noise", self.jerk_noise)?;
+        positive("sim.icu.drive_error_noise", self.drive_error_noise)?;
         non_negative("sim.icu.output_hz", self.output_hz)?;
         non_negative("sim.icu.output_jump_nm", self.output_jump_nm)?;
         if !(1..=2).contains(&self.filter_stages) {
@@ -311,14 +393,42 @@ impl<const N: usize> LowPass<N> {
     }
 }
 
+/// The drive filter's joint-space inertia is computed again every this many periods.
+const INERTIA_EVERY: usize = 20;
+
+/// The base's acceleration steps the drive torques' changes made (`ν̇`, `C` axes), summed
+/// (now and a period ago), and the base filter's low-pass of them.
+#[derive(Debug, Clone, Default)]
+struct BaseSteps {
+    sum: Vector6<f64>,
+    last: Vector6<f64>,
+    filter: Option<LowPass<6>>,
+}
+
 /// The ICU with its filters.
 #[derive(Debug, Clone)]
 pub struct Icu {
     cfg: IcuConfig,
+    /// The tachometers' and torque sensors' standard deviations (their data sheet), rad/s and
+    /// N·m.
+    sensor_noise: (f64, f64),
     /// The filter of the measured signals (built at the first measurement).
     filter: Option<LowPass<18>>,
-    /// The rate observer (`acceleration = "observer"`).
-    observer: RateObserver,
+    /// The drive filter (`acceleration = "observer"`).
+    observer: DriveFilter,
+    /// The controller's model of the whole vehicle-manipulator system, when the arm is on a
+    /// vehicle (`None`: on a fixed base).
+    system: Option<Box<Multibody>>,
+    /// The inverse of the inertia with the rotors (the whole system's on a vehicle, the
+    /// arm's on a fixed base), the vehicle's acceleration per joint acceleration at constant
+    /// external forces (`−H_vv⁻¹ H_vq`; zero on a fixed base), and the periods until they are
+    /// computed again (the configuration changes slowly).
+    inertia: (GenMatrix, Matrix6<f64>, usize),
+    /// The drive torques of the last period, clipped to the limits.
+    tau_last: Option<JointVector>,
+    /// The base's acceleration steps the drive torques' changes made, summed (`ν̇`, `C` axes),
+    /// and the base filter's low-pass of them: the part the filtered sensors do not show yet.
+    base_steps: BaseSteps,
     /// The low-pass on `M_ez` (`acceleration = "observer"`, `output_hz > 0`).
     output: Option<(JointVector, JointVector)>,
     /// The free-space offset of `M_ez`, N·m.
@@ -332,18 +442,33 @@ pub struct Icu {
 }
 
 impl Icu {
-    /// An ICU that has seen no measurement yet.
-    pub fn new(cfg: &IcuConfig) -> Self {
+    /// An ICU that has seen no measurement yet, for the sensors `sensors` (the drive filter
+    /// weighs them by their noise).
+    pub fn new(cfg: &IcuConfig, sensors: &SensorConfig) -> Self {
         Icu {
             cfg: *cfg,
+            sensor_noise: (sensors.joint_rate_noise_rad_s, sensors.torque_noise_nm),
             filter: None,
-            observer: RateObserver::default(),
+            observer: DriveFilter::default(),
+            system: None,
+            inertia: (GenMatrix::zeros(), Matrix6::zeros(), 0),
+            tau_last: None,
+            base_steps: BaseSteps::default(),
             output: None,
             offset: JointVector::zeros(),
             quiet_offset: JointVector::zeros(),
             touched: false,
             touch_force: None,
         }
+    }
+
+    /// The ICU of an arm on the vehicle of `system` (the controller's model): a change of the
+    /// drive torques moves the vehicle too (the arm's reaction), and the base acceleration of
+    /// the IDP takes the steps it makes at once (a complementary filter: the gyros' and
+    /// accelerometers' low-pass plus the high-pass of the steps the model predicts).
+    pub fn on_vehicle(mut self, system: &Multibody) -> Self {
+        self.system = Some(Box::new(system.clone()));
+        self
     }
 
     /// Eq. (1)–(12) for the measurements `m` of a control period `dt`, with `arm` the
@@ -381,10 +506,61 @@ impl Icu {
             Acceleration::Commanded => (drive.commanded, m.m_dz),
             Acceleration::Measured => (dy.fixed_rows::<6>(0) / dt, y.fixed_rows::<6>(9).into_owned()),
             Acceleration::Observer => {
-                let (qdd, _) =
-                    self.observer
-                        .update(arm, &m.qd, &m.m_dz, drive.torque.as_ref(), cfg.observer_hz, dt);
-                (qdd, m.m_dz)
+                let noise = DriveNoise {
+                    rate: self.sensor_noise.0,
+                    torque: self.sensor_noise.1,
+                    jerk: cfg.jerk_noise,
+                    drive_error: cfg.drive_error_noise,
+                };
+                if self.inertia.2 == 0 {
+                    let (h_inv, reaction) = match &self.system {
+                        Some(system) => {
+                            let h = system.mass_matrix(&m.q);
+                            let hvv = h.fixed_view::<6, 6>(0, 0).into_owned();
+                            let reaction = hvv
+                                .cholesky()
+                                .map(|c| -c.solve(&h.fixed_view::<6, 6>(0, 6).into_owned()));
+                            (h.try_inverse(), reaction)
+                        }
+                        None => (
+                            arm.mass_matrix(&m.q).try_inverse().map(|h| {
+                                let mut g = GenMatrix::zeros();
+                                g.fixed_view_mut::<6, 6>(6, 6).copy_from(&h);
+                                g
+                            }),
+                            None,
+                        ),
+                    };
+                    self.inertia = (
+                        h_inv.unwrap_or_else(GenMatrix::zeros),
+                        reaction.unwrap_or_else(Matrix6::zeros),
+                        INERTIA_EVERY,
+                    );
+                }
+                self.inertia.2 -= 1;
+                match drive.torque {
+                    None => {
+                        self.observer.reset();
+                        (JointVector::zeros(), m.m_dz)
+                    }
+                    Some(torque) => {
+                        let tau = JointVector::from_fn(|i, _| {
+                            let lim = arm.links[i].torque_limit;
+                            torque[i].clamp(-lim, lim)
+                        });
+                        let h_inv = &self.inertia.0;
+                        let change = tau - self.tau_last.unwrap_or(tau);
+                        self.tau_last = Some(tau);
+                        let jump = h_inv.fixed_view::<6, 6>(6, 6) * change;
+                        let diag = JointVector::from_fn(|i, _| h_inv[(6 + i, 6 + i)]);
+                        let (qdd, _) = self
+                            .observer
+                            .update(arm, &tau, &jump, &diag, &m.qd, &m.m_dz, &noise, dt);
+                        self.base_steps.last = self.base_steps.sum;
+                        self.base_steps.sum = self.inertia.1 * qdd;
+                        (qdd, m.m_dz)
+                    }
+                }
             }
         };
         let mut base = *base;
@@ -394,7 +570,20 @@ impl Icu {
             let g_body = arm.mount.rot.transpose() * base.gravity;
             let lin = y.fixed_rows::<3>(15) + g_body;
             let ang = dy.fixed_rows::<3>(6) / dt;
-            let nu_dot = Vector6::new(lin.x, lin.y, lin.z, ang.x, ang.y, ang.z);
+            let mut nu_dot = Vector6::new(lin.x, lin.y, lin.z, ang.x, ang.y, ang.z);
+            if self.system.is_some() && cfg.acceleration == Acceleration::Observer {
+                // The accelerometers read a step at once, the gyros' backward difference a
+                // period later: the steps pass the base filter lined up with each, and what has
+                // not come through it yet is added.
+                let steps = &mut self.base_steps;
+                let (sum, last) = (steps.sum, steps.last);
+                let seen = steps
+                    .filter
+                    .get_or_insert_with(|| LowPass::new(cfg.base_filter_hz, cfg.filter_stages, dt))
+                    .update(&Vector6::new(sum[0], sum[1], sum[2], last[3], last[4], last[5]))
+                    .0;
+                nu_dot += sum - seen;
+            }
             base.acceleration = arm.mount.motion(&Motion::from_vector6(&nu_dot));
         }
         let m_wz = arm.inverse_dynamics(&m.q, &m.qd, &qdd, &base, None).tau_rigid;
@@ -581,10 +770,11 @@ mod tests {
             torque: None,
         };
         for (tare_s, free_space_left) in [(1.0, 0.0), (0.0, 1.0)] {
-            let mut icu = Icu::new(&IcuConfig {
+            let cfg = IcuConfig {
                 tare_s,
                 ..IcuConfig::default()
-            });
+            };
+            let mut icu = Icu::new(&cfg, &SensorConfig::default());
             let mut id = None;
             for _ in 0..8000 {
                 id = Some(icu.identify(&arm, &meas(m_wz + b), &drive, &base, true, dt));
@@ -664,65 +854,93 @@ mod tests {
         }
     }
 
-    /// An arm on a fixed base moving every joint at 0.1 rad/s (out of the friction's steep
-    /// region) under a PD loop, its plant the controller's own model integrated at 1 kHz, with
-    /// the sensors' noise (0.05 N·m, 1 mrad/s); at 0.3 s a 46 N tool force appears at once. The
+    /// An arm on a fixed base under a PD loop holding every joint at the rate `w` from
+    /// `q0`, its plant the controller's own model (integrated at 10 kHz, controlled and
+    /// measured at 1 kHz), with the sensors' noise
+    /// (0.05 N·m, 1 mrad/s); after 0.3 s the tool force `f_step` appears at once and the drive
+    /// torques step by `tau_step`. The largest error of `M_ez` at each period.
+    fn simulate(
+        acceleration: Acceleration,
+        w: JointVector,
+        f_step: Vector3<f64>,
+        tau_step: JointVector,
+    ) -> Vec<f64> {
+        let arm = arm();
+        let base = BaseMotion::fixed(arm.level_gravity(9.81));
+        let dt = 1e-3;
+        let cfg = IcuConfig {
+            acceleration,
+            ..IcuConfig::default()
+        };
+        let mut icu = Icu::new(&cfg, &SensorConfig::default());
+        let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(5);
+        let q0 = JointVector::new(0.3, 0.9, -2.0, 0.4, 0.7, -0.5);
+        let (mut q, mut qd) = (q0, w);
+        let mut errors = Vec::new();
+        for k in 0..500 {
+            let t = k as f64 * dt;
+            let (f_imp, extra) = if t > 0.3 {
+                (f_step, tau_step)
+            } else {
+                (Vector3::zeros(), JointVector::zeros())
+            };
+            let jv = arm.jacobian(&q).fixed_rows::<3>(0).into_owned();
+            let m_ez = jv.transpose() * f_imp;
+            let hold = arm.inverse_dynamics(&q, &qd, &JointVector::zeros(), &base, None);
+            let tau = hold.tau_rigid
+                + arm.friction(&w, Some(arm.coulomb_smoothing))
+                + (q0 + w * t - q) * 400.0
+                + (w - qd) * 40.0
+                + extra;
+            let qdd = arm.forward_dynamics(&q, &qd, &(tau - m_ez), &base).unwrap();
+            let shaft =
+                tau - arm.armature().component_mul(&qdd) - arm.friction(&qd, Some(arm.coulomb_smoothing));
+            let meas = Measurements {
+                q,
+                qd: qd.map(|v| v + 1e-3 * gaussian(&mut rng)),
+                m_dz: shaft.map(|v| v + 0.05 * gaussian(&mut rng)),
+                attitude: nalgebra::UnitQuaternion::identity(),
+                omega: Vector3::zeros(),
+                specific_force: -(arm.mount.rot.transpose() * base.gravity),
+                position: Vector3::zeros(),
+                position_time: 0.0,
+            };
+            let drive = Drive {
+                commanded: qdd,
+                torque: Some(tau),
+            };
+            let id = icu.identify(&arm, &meas, &drive, &base, false, dt);
+            errors.push((id.m_ez - m_ez).amax());
+            // Ten steps a period: the steep friction makes one Euler step of 1 ms too coarse.
+            let h = dt / 10.0;
+            for sub in 0..10 {
+                let qdd = if sub == 0 {
+                    qdd
+                } else {
+                    arm.forward_dynamics(&q, &qd, &(tau - m_ez), &base).unwrap()
+                };
+                qd += qdd * h;
+                q += qd * h;
+            }
+        }
+        errors
+    }
+
+    fn worst(e: &[f64]) -> f64 {
+        e.iter().fold(0.0_f64, |a, &b| a.max(b))
+    }
+
+    /// Every joint moving at 0.1 rad/s (out of the friction's steep region) in [`simulate`]; at
+    /// 0.3 s a 46 N tool force appears at once. The
     /// observer's `M_ez` matches `J_vᵀ F_imp` within 1 N·m before the step, at the first reading
     /// after it and from 5 ms on; the measured acceleration's filter (two 30 Hz stages, 10.6 ms
     /// of delay) still misses most of the step 5 ms after it.
     #[test]
     fn the_observer_passes_a_step_of_the_tool_force_at_once() {
-        let arm = arm();
-        let base = BaseMotion::fixed(arm.level_gravity(9.81));
-        let dt = 1e-3;
+        let w = JointVector::repeat(0.1);
         let f_step = Vector3::new(20.0, -10.0, 40.0);
-        let run = |acceleration: Acceleration| {
-            let mut icu = Icu::new(&IcuConfig {
-                acceleration,
-                ..IcuConfig::default()
-            });
-            let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(5);
-            let q0 = JointVector::new(0.3, 0.9, -2.0, 0.4, 0.7, -0.5);
-            let w = JointVector::repeat(0.1);
-            let (mut q, mut qd) = (q0, w);
-            let mut errors = Vec::new();
-            for k in 0..500 {
-                let t = k as f64 * dt;
-                let f_imp = if t > 0.3 { f_step } else { Vector3::zeros() };
-                let jv = arm.jacobian(&q).fixed_rows::<3>(0).into_owned();
-                let m_ez = jv.transpose() * f_imp;
-                let hold = arm.inverse_dynamics(&q, &qd, &JointVector::zeros(), &base, None);
-                let tau = hold.tau_rigid
-                    + arm.friction(&w, Some(arm.coulomb_smoothing))
-                    + (q0 + w * t - q) * 400.0
-                    + (w - qd) * 40.0;
-                let qdd = arm.forward_dynamics(&q, &qd, &(tau - m_ez), &base).unwrap();
-                let shaft =
-                    tau - arm.armature().component_mul(&qdd) - arm.friction(&qd, Some(arm.coulomb_smoothing));
-                let meas = Measurements {
-                    q,
-                    qd: qd.map(|v| v + 1e-3 * gaussian(&mut rng)),
-                    m_dz: shaft.map(|v| v + 0.05 * gaussian(&mut rng)),
-                    attitude: nalgebra::UnitQuaternion::identity(),
-                    omega: Vector3::zeros(),
-                    specific_force: -(arm.mount.rot.transpose() * base.gravity),
-                    position: Vector3::zeros(),
-                    position_time: 0.0,
-                };
-                let drive = Drive {
-                    commanded: qdd,
-                    torque: Some(tau),
-                };
-                let id = icu.identify(&arm, &meas, &drive, &base, false, dt);
-                errors.push((id.m_ez - m_ez).amax());
-                qd += qdd * dt;
-                q += qd * dt;
-            }
-            errors
-        };
-        let observer = run(Acceleration::Observer);
-        let measured = run(Acceleration::Measured);
-        let worst = |e: &[f64]| e.iter().fold(0.0_f64, |a, &b| a.max(b));
+        let observer = simulate(Acceleration::Observer, w, f_step, JointVector::zeros());
+        let measured = simulate(Acceleration::Measured, w, f_step, JointVector::zeros());
         // Settled, before the step and from 5 ms after it.
         assert!(worst(&observer[100..300]) < 1.0, "{}", worst(&observer[100..300]));
         assert!(worst(&observer[306..]) < 1.0, "{}", worst(&observer[306..]));
@@ -731,5 +949,25 @@ mod tests {
         // than 5 N·m.
         assert!(observer[301] < 1.0, "{}", observer[301]);
         assert!(measured[306] > 5.0, "{}", measured[306]);
+    }
+
+    /// The arm held at rest, every joint in the steep region of its smoothed Coulomb friction
+    /// (`dt F′/I_a` ≈ 1.6 on the shoulder), and the drive torques stepping at 0.3 s — the
+    /// shoulder by 15 N·m, below its Coulomb level, the elbow by 10 N·m — with no tool force:
+    /// the joints' accelerations jump (`H⁻¹ Δτ`) and the friction takes the torque within a few
+    /// milliseconds. The identified moments stay within 1 N·m of zero throughout (0.43 N·m at
+    /// most here; in the bottle run such steps on a stuck shoulder made the earlier observer,
+    /// which predicted the rate at the measurement with the torque of the period it opens,
+    /// read 8-14 N·m).
+    #[test]
+    fn a_drive_torque_step_on_joints_held_by_friction_is_no_external_moment() {
+        let tau_step = JointVector::new(15.0, 0.0, 10.0, 0.0, 0.0, 0.0);
+        let errors = simulate(
+            Acceleration::Observer,
+            JointVector::zeros(),
+            Vector3::zeros(),
+            tau_step,
+        );
+        assert!(worst(&errors[100..]) < 1.0, "{}", worst(&errors[100..]));
     }
 }

@@ -379,7 +379,7 @@ pub fn simulate(
     let mut contact = Contact::new(surface, &cfg.contact)?;
     let mut sensors = Sensors::new(&cfg.sensors, cfg.seed, h.translation.vector);
     let mut fcu = Fcu::new(&cfg.force);
-    let mut icu = Icu::new(&cfg.icu);
+    let mut icu = Icu::new(&cfg.icu, &cfg.sensors).on_vehicle(&ctrl);
     let mut joints = JointControl::new(&cfg.joints, &hover.q_start);
     let mut vc = VehicleControl::new(&cfg.vehicle, &h);
     let mut nav = Navigation::new(&cfg.navigation, h.translation.vector, g);

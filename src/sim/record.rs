@@ -199,8 +199,16 @@ pub struct Figures {
     pub contact_lost_s: f64,
     /// Time of the first contact, s (none: never touched).
     pub first_contact_s: Option<f64>,
-    /// Largest error of the identified external joint moments, N·m.
+    /// Largest error of the identified external joint moments (the largest over the joints,
+    /// every control period of the run), N·m.
     pub moment_id_error_max_nm: f64,
+    /// Median over the control periods in contact of the identified external joint moments'
+    /// error (the largest over the joints each period), N·m (none: never in contact).
+    pub moment_id_error_contact_median_nm: Option<f64>,
+    /// Its 95th percentile, N·m.
+    pub moment_id_error_contact_p95_nm: Option<f64>,
+    /// Its largest value, N·m.
+    pub moment_id_error_contact_max_nm: Option<f64>,
     /// Largest error of the identified force along `k` once settled, N.
     pub force_id_error_max_n: f64,
 }
@@ -220,6 +228,7 @@ pub struct Recorder {
     lost: f64,
     last_t: Option<f64>,
     m_ez_error: f64,
+    m_ez_errors_contact: Vec<f64>,
     deviation: f64,
     path_error: f64,
     r: f64,
@@ -243,6 +252,7 @@ impl Recorder {
             lost: 0.0,
             last_t: None,
             m_ez_error: 0.0,
+            m_ez_errors_contact: Vec::new(),
             deviation: 0.0,
             path_error: 0.0,
             r: 0.0,
@@ -282,6 +292,9 @@ impl Recorder {
         self.force_max = self.force_max.max(o.f_k_true);
         self.contact_force_max = self.contact_force_max.max(o.f_norm);
         self.m_ez_error = self.m_ez_error.max(o.m_ez_error);
+        if o.in_contact {
+            self.m_ez_errors_contact.push(o.m_ez_error);
+        }
         self.deviation = self.deviation.max(o.deviation);
         self.path_error = self.path_error.max(o.path_error);
         self.r = self.r.max(o.r);
@@ -292,6 +305,8 @@ impl Recorder {
     pub fn figures(&self) -> Figures {
         let (sum, sum2, n, min) = self.settled;
         let nf = n.max(1) as f64;
+        let mut errors = self.m_ez_errors_contact.clone();
+        let mut quantile = |q: f64| quantile(&mut errors, q);
         Figures {
             force_setpoint_n: self.setpoint,
             force_settled_mean_n: if n > 0 { sum / nf } else { f64::NAN },
@@ -307,6 +322,9 @@ impl Recorder {
             contact_lost_s: self.lost,
             first_contact_s: self.first_contact,
             moment_id_error_max_nm: self.m_ez_error,
+            moment_id_error_contact_median_nm: quantile(0.5),
+            moment_id_error_contact_p95_nm: quantile(0.95),
+            moment_id_error_contact_max_nm: quantile(1.0),
             force_id_error_max_n: self.force_id_error,
         }
     }
@@ -315,6 +333,15 @@ impl Recorder {
     pub fn into_rows(self) -> Vec<Row> {
         self.rows
     }
+}
+
+/// The `q` quantile of `values` (the nearest rank; reorders them); `None` when empty.
+fn quantile(values: &mut [f64], q: f64) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    let i = ((values.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
+    Some(*values.select_nth_unstable_by(i, f64::total_cmp).1)
 }
 
 /// Writes `timeseries.csv` (the module docs give the columns).
@@ -513,4 +540,48 @@ fn joint_panels(
 
 fn on(b: bool) -> &'static str {
     if b { "on" } else { "off" }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn observation(t: f64, in_contact: bool, m_ez_error: f64) -> Observation {
+        Observation {
+            phase: if in_contact {
+                Phase::Contact
+            } else {
+                Phase::Approach
+            },
+            t,
+            f_k_true: 0.0,
+            f_k_id: 0.0,
+            f_norm: 0.0,
+            in_contact,
+            m_ez_error,
+            deviation: 0.0,
+            path_error: 0.0,
+            r: 0.0,
+            attitude: 0.0,
+        }
+    }
+
+    /// The identification error's quantiles are taken over the periods in contact only; the
+    /// run's largest error over every period.
+    #[test]
+    fn identification_error_quantiles_in_contact() {
+        let mut rec = Recorder::new(60.0, 1.0);
+        rec.observe(&observation(0.0, false, 50.0));
+        assert_eq!(rec.figures().moment_id_error_contact_median_nm, None);
+        // 1, 2, ..., 100 N·m in contact, shuffled.
+        for k in 0..100 {
+            let e = ((k * 37) % 100 + 1) as f64;
+            rec.observe(&observation(1.0 + k as f64 * 1e-3, true, e));
+        }
+        let f = rec.figures();
+        assert_eq!(f.moment_id_error_max_nm, 100.0);
+        assert_eq!(f.moment_id_error_contact_median_nm, Some(51.0));
+        assert_eq!(f.moment_id_error_contact_p95_nm, Some(95.0));
+        assert_eq!(f.moment_id_error_contact_max_nm, Some(100.0));
+    }
 }
