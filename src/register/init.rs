@@ -79,6 +79,27 @@ impl Default for InitConfig {
     }
 }
 
+/// Iterations the coarse ICPs run between two checks for runs that have met.
+const COARSE_BLOCK: usize = 4;
+
+/// One candidate's coarse ICP (scan → decimated model) as it goes.
+struct CoarseRun {
+    /// The candidate after its centroid and offset steps (`t_scan_reference`).
+    start: Pose,
+    /// Its score there.
+    start_score: f64,
+    /// Where the ICP is (`t_model_scan`), `None` once it has failed.
+    t_model_scan: Option<Pose>,
+    /// The gate its next iteration uses.
+    gate: f64,
+    /// Iterations left.
+    left: usize,
+    /// Neither converged, failed, out of iterations, nor redundant.
+    running: bool,
+    /// It met a run ahead of it and was dropped.
+    redundant: bool,
+}
+
 /// The chosen initial guess.
 #[derive(Debug, Clone, PartialEq)]
 pub struct InitOutcome {
@@ -233,32 +254,44 @@ pub fn initial_guess(
     };
     let full = model.surfel();
     let small_spacing = model.spacing_m * (stride as f64).sqrt();
+    let short = |iterations: usize| IcpConfig {
+        max_iterations: iterations.max(1),
+        min_gate_m: (0.1 * tau).max(1e-6),
+        gate_shrink: 0.85,
+        // A candidate only has to be ranked (and the best handed to the final ICP): steps below
+        // a hundredth of τ no longer change that.
+        rotation_tolerance_rad: 0.01 * tau / size,
+        translation_tolerance_m: (0.01 * tau).max(1e-9),
+        ..IcpConfig::default()
+    };
+    // The short ICP's pose if it scores no worse than where it started, else the start.
+    let better = |(model, spacing): (Surfel<'_>, f64),
+                  pts: &[Point3<f64>],
+                  (start, s0): (&Pose, f64),
+                  icp: Option<Pose>|
+     -> (Pose, f64) {
+        let Some(t_model_scan) = icp else {
+            return (*start, s0);
+        };
+        let p = t_model_scan.inverse();
+        let s = score(model, spacing, pts, &p, tau).0;
+        if s <= s0 { (p, s) } else { (*start, s0) }
+    };
     let refine = |(model, spacing): (Surfel<'_>, f64),
                   pts: &[Point3<f64>],
                   (pose, gate): (&Pose, f64),
                   iterations: usize|
      -> (Pose, f64) {
-        let short = IcpConfig {
-            max_iterations: iterations.max(1),
-            min_gate_m: (0.1 * tau).max(1e-6),
-            gate_shrink: 0.85,
-            // A candidate only has to be ranked (and the best handed to the final ICP): steps
-            // below a hundredth of τ no longer change that.
-            rotation_tolerance_rad: 0.01 * tau / size,
-            translation_tolerance_m: (0.01 * tau).max(1e-9),
-            ..IcpConfig::default()
-        };
         let s0 = score(model, spacing, pts, pose, tau).0;
-        match icp_point_to_plane(pts, model, None, &pose.inverse(), gate, &short) {
-            Ok(o) => {
-                let p = o.t_target_source.inverse();
-                let s = score(model, spacing, pts, &p, tau).0;
-                if s <= s0 { (p, s) } else { (*pose, s0) }
-            }
-            Err(_) => (*pose, s0),
-        }
+        let icp = icp_point_to_plane(pts, model, None, &pose.inverse(), gate, &short(iterations));
+        better(
+            (model, spacing),
+            pts,
+            (pose, s0),
+            icp.ok().map(|o| o.t_target_source),
+        )
     };
-    let mut scored: Vec<(Pose, f64)> = rotations
+    let mut coarse_runs: Vec<CoarseRun> = rotations
         .par_iter()
         .map(|r| {
             let q = UnitQuaternion::from_rotation_matrix(r);
@@ -271,11 +304,66 @@ pub fn initial_guess(
                 let (_, off) = score(small, small_spacing, &coarse, &pose, gate);
                 pose *= Translation3::from(-off);
             }
-            refine(
+            CoarseRun {
+                start: pose,
+                start_score: score(small, small_spacing, &coarse, &pose, tau).0,
+                t_model_scan: Some(pose.inverse()),
+                gate,
+                left: cfg.coarse_iterations.max(1),
+                running: true,
+                redundant: false,
+            }
+        })
+        .collect();
+    // The coarse ICPs run in lockstep, a few iterations at a time; a run that has come within
+    // 0.1 τ (the noise floor of a score) of a run ahead of it in the list would follow it to the
+    // same pose and the same score, so it stops there and is dropped.
+    let same = |a: &Pose, b: &Pose| {
+        let (a, b) = (a.inverse(), b.inverse());
+        let moved = (a * model.shape.centroid - b * model.shape.centroid).norm()
+            + a.rotation.angle_to(&b.rotation) * size;
+        moved < 0.1 * tau
+    };
+    while coarse_runs.iter().any(|c| c.running) {
+        coarse_runs.par_iter_mut().filter(|c| c.running).for_each(|c| {
+            let run = short(c.left.min(COARSE_BLOCK));
+            let pose = c.t_model_scan.unwrap_or(c.start.inverse());
+            match icp_point_to_plane(&coarse, small, None, &pose, c.gate, &run) {
+                Ok(o) => {
+                    c.t_model_scan = Some(o.t_target_source);
+                    c.gate = o.next_gate_m;
+                    c.left = c.left.saturating_sub(o.iterations);
+                    c.running = !o.converged && c.left > 0;
+                }
+                Err(_) => {
+                    c.t_model_scan = None;
+                    c.running = false;
+                }
+            }
+        });
+        for i in 0..coarse_runs.len() {
+            let Some(p) = coarse_runs[i].t_model_scan.filter(|_| coarse_runs[i].running) else {
+                continue;
+            };
+            let ahead = &coarse_runs[..i];
+            if ahead
+                .iter()
+                .any(|c| !c.redundant && c.t_model_scan.is_some_and(|q| same(&p, &q)))
+            {
+                coarse_runs[i].running = false;
+                coarse_runs[i].redundant = true;
+            }
+        }
+    }
+    let mut scored: Vec<(Pose, f64)> = coarse_runs
+        .par_iter()
+        .filter(|c| !c.redundant)
+        .map(|c| {
+            better(
                 (small, small_spacing),
                 &coarse,
-                (&pose, gate),
-                cfg.coarse_iterations,
+                (&c.start, c.start_score),
+                c.t_model_scan,
             )
         })
         .collect();
