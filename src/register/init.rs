@@ -12,7 +12,10 @@
 //! 3. each gets a short, coarse point-to-plane ICP from a few hundred scan points to the model
 //!    (scan → model, since every scanned point must lie on the model while most model points are
 //!    unseen) and is scored by the truncated RMS distance of the scan's points to the model,
-//!    `√mean(min(d², τ²))`;
+//!    `√mean(min(d², τ²))`. The coarse ICPs run in lockstep, a few iterations at a time; between
+//!    blocks a run stops when it has come within 0.1 τ of a run ahead of it (it would end where
+//!    that one ends) or when its score is out of contention (step 4's bound) with the best so far —
+//!    a bound that only bites once some run fits to near the noise floor;
 //! 4. the `refine` best distinct candidates (laying the model's major axis differently, or turned
 //!    by more than 90° — so both end-to-end orientations of a bottle get there) that are still in
 //!    contention (`refine_within`) get a longer ICP on more points and are scored again; the best
@@ -98,6 +101,9 @@ struct CoarseRun {
     running: bool,
     /// It met a run ahead of it and was dropped.
     redundant: bool,
+    /// Once it has stopped (and is not redundant): its pose and score, or its start's when the
+    /// start scored better.
+    done: Option<(Pose, f64)>,
 }
 
 /// The chosen initial guess.
@@ -111,8 +117,8 @@ pub struct InitOutcome {
     pub score_m: f64,
     /// The same for the best candidate that lays the model's major axis more than 30° from the
     /// winner's (e.g. the other end-to-end orientation), metres: how clearly the winner won. Its
-    /// refined score, or its coarse one when it was not in contention. `None` if every candidate
-    /// lays the axis as the winner does.
+    /// refined score, or its coarse one (where its coarse ICP stopped) when it was not in
+    /// contention. `None` if every candidate lays the axis as the winner does.
     pub runner_up_score_m: Option<f64>,
 }
 
@@ -312,6 +318,7 @@ pub fn initial_guess(
                 left: cfg.coarse_iterations.max(1),
                 running: true,
                 redundant: false,
+                done: None,
             }
         })
         .collect();
@@ -323,6 +330,16 @@ pub fn initial_guess(
         let moved = (a * model.shape.centroid - b * model.shape.centroid).norm()
             + a.rotation.angle_to(&b.rotation) * size;
         moved < 0.1 * tau
+    };
+    // Candidates scoring above this, for the best score `best`, cannot win: they are not refined.
+    let contention = |best: f64| cfg.refine_within * best + 0.1 * tau;
+    let finish = |c: &CoarseRun| {
+        better(
+            (small, small_spacing),
+            &coarse,
+            (&c.start, c.start_score),
+            c.t_model_scan,
+        )
     };
     while coarse_runs.iter().any(|c| c.running) {
         coarse_runs.par_iter_mut().filter(|c| c.running).for_each(|c| {
@@ -340,6 +357,9 @@ pub fn initial_guess(
                     c.running = false;
                 }
             }
+            if !c.running {
+                c.done = Some(finish(c));
+            }
         });
         for i in 0..coarse_runs.len() {
             let Some(p) = coarse_runs[i].t_model_scan.filter(|_| coarse_runs[i].running) else {
@@ -354,26 +374,41 @@ pub fn initial_guess(
                 coarse_runs[i].redundant = true;
             }
         }
+        // A run still going whose score is out of contention with the best so far (the
+        // refinement's own bound, which is loose unless some run already fits to within the
+        // noise floor) stops: it will not be refined.
+        if !coarse_runs.iter().any(|c| c.running) {
+            break;
+        }
+        let now: Vec<Option<(Pose, f64)>> = coarse_runs
+            .par_iter()
+            .map(|c| c.running.then(|| finish(c)))
+            .collect();
+        let best = coarse_runs
+            .iter()
+            .zip(&now)
+            .filter_map(|(c, n)| c.done.or(*n).map(|d| d.1))
+            .fold(f64::INFINITY, f64::min);
+        let bound = contention(best);
+        for (c, n) in coarse_runs.iter_mut().zip(now) {
+            if let Some(n) = n.filter(|n| n.1 > bound) {
+                c.running = false;
+                c.done = Some(n);
+            }
+        }
     }
     let mut scored: Vec<(Pose, f64)> = coarse_runs
-        .par_iter()
+        .iter()
         .filter(|c| !c.redundant)
-        .map(|c| {
-            better(
-                (small, small_spacing),
-                &coarse,
-                (&c.start, c.start_score),
-                c.t_model_scan,
-            )
-        })
+        .filter_map(|c| c.done)
         .collect();
     scored.sort_by(|a, b| a.1.total_cmp(&b.1));
     // The best `refine` that are distinct: they lay the model's major axis differently (> 30°,
     // e.g. the two end-to-end orientations of a bottle) or differ by more than 90° overall.
     let major = model.shape.axes.column(0).into_owned();
-    let contention = cfg.refine_within * scored[0].1 + 0.1 * tau;
+    let cut = contention(scored[0].1);
     let mut chosen: Vec<(Pose, f64)> = Vec::with_capacity(cfg.refine);
-    for c in scored.iter().take_while(|c| c.1 <= contention) {
+    for c in scored.iter().take_while(|c| c.1 <= cut) {
         let distinct = chosen.iter().all(|(p, _)| {
             let axes = (p.rotation * major).angle(&(c.0.rotation * major));
             axes > 30f64.to_radians() || (p.rotation.inverse() * c.0.rotation).angle() > 90f64.to_radians()
