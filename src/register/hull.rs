@@ -10,6 +10,9 @@
 
 use nalgebra::{Point3, Vector3};
 
+/// No face, no point.
+const NONE: usize = usize::MAX;
+
 /// One triangle of the hull under construction: counter-clockwise seen from outside.
 struct Face {
     /// Vertex indices into the point set.
@@ -20,8 +23,9 @@ struct Face {
     n: Vector3<f64>,
     /// Plane offset: `n · x = d` on the face.
     d: f64,
-    /// Points above this face not yet on the hull.
-    outside: Vec<usize>,
+    /// First of the points above this face not yet on the hull (`NONE` if none; the others
+    /// follow through `next`).
+    outside: usize,
     /// Still part of the hull.
     alive: bool,
 }
@@ -35,7 +39,7 @@ impl Face {
             nb: [usize::MAX; 3],
             n,
             d: n.dot(&a.coords),
-            outside: Vec::new(),
+            outside: NONE,
             alive: true,
         })
     }
@@ -55,14 +59,17 @@ pub fn hull_vertices(points: &[Point3<f64>]) -> Option<Vec<usize>> {
     }
     let eps = 64.0 * f64::EPSILON * scale;
     let mut faces = initial_simplex(points, eps)?;
-    // Every other point goes to the outside set of the first face it is above.
+    // Every other point goes to the outside set of the first face it is above; each set is a
+    // list threaded through `next`.
+    let mut next = vec![NONE; points.len()];
     let used: Vec<usize> = faces.iter().flat_map(|f| f.v).collect();
     for (i, p) in points.iter().enumerate() {
         if used.contains(&i) {
             continue;
         }
         if let Some(f) = faces.iter_mut().find(|f| f.height(p) > eps) {
-            f.outside.push(i);
+            next[i] = f.outside;
+            f.outside = i;
         }
     }
     let mut pending: Vec<usize> = (0..faces.len()).collect();
@@ -71,14 +78,19 @@ pub fn hull_vertices(points: &[Point3<f64>]) -> Option<Vec<usize>> {
     let mut horizon: Vec<(usize, usize, usize)> = Vec::new();
     let mut orphans: Vec<usize> = Vec::new();
     while let Some(fi) = pending.pop() {
-        if !faces[fi].alive || faces[fi].outside.is_empty() {
+        if !faces[fi].alive || faces[fi].outside == NONE {
             continue;
         }
         // The farthest outside point of this face is certainly a hull vertex.
-        let eye = *faces[fi].outside.iter().max_by(|&&a, &&b| {
-            let f = &faces[fi];
-            f.height(&points[a]).total_cmp(&f.height(&points[b]))
-        })?;
+        let (mut eye, mut far) = (NONE, f64::NEG_INFINITY);
+        let mut p = faces[fi].outside;
+        while p != NONE {
+            let h = faces[fi].height(&points[p]);
+            if h > far {
+                (eye, far) = (p, h);
+            }
+            p = next[p];
+        }
         let e = points[eye];
         // The faces the eye sees: a connected patch around `fi`.
         visible.clear();
@@ -134,7 +146,11 @@ pub fn hull_vertices(points: &[Point3<f64>]) -> Option<Vec<usize>> {
         orphans.clear();
         for &f in &visible {
             faces[f].alive = false;
-            orphans.append(&mut faces[f].outside);
+            let mut p = std::mem::replace(&mut faces[f].outside, NONE);
+            while p != NONE {
+                orphans.push(p);
+                p = next[p];
+            }
         }
         for &p in &orphans {
             if p == eye {
@@ -142,7 +158,8 @@ pub fn hull_vertices(points: &[Point3<f64>]) -> Option<Vec<usize>> {
             }
             let x = &points[p];
             if let Some(f) = (first..faces.len()).find(|&f| faces[f].height(x) > eps) {
-                faces[f].outside.push(p);
+                next[p] = faces[f].outside;
+                faces[f].outside = p;
             }
         }
         pending.extend(first..faces.len());
