@@ -45,10 +45,11 @@ pub fn estimate_normals(
         .par_iter()
         .map(|p| {
             let towards = (viewpoint - p).try_normalize(1e-300).unwrap_or(Vector3::z());
-            let mut nb = index.knn(p, k);
-            if config.radius_m > 0.0 {
-                nb.retain(|n| n.distance <= config.radius_m);
-            }
+            let nb = if config.radius_m > 0.0 {
+                index.knn_within(p, k, config.radius_m)
+            } else {
+                index.knn(p, k)
+            };
             if nb.len() < 3 {
                 return towards;
             }

@@ -7,6 +7,7 @@
 //! factors keep more points (Open3D's examples use 100). The single-view scan cannot contain the
 //! back of the reference model, so the seed culls those points before ICP; so do we.
 
+use crate::register::hull::hull_vertices;
 use crate::surface::convex_hull_vertices;
 use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
@@ -34,9 +35,23 @@ impl Default for HiddenPointConfig {
 /// degenerate (a flat or tiny set, or a viewpoint among the points) every point is returned.
 pub fn visible_points(points: &[Point3<f64>], viewpoint: &Point3<f64>, radius_factor: f64) -> Vec<usize> {
     let all = || (0..points.len()).collect();
+    let Some(flipped) = flipped(points, viewpoint, radius_factor) else {
+        return all();
+    };
+    // Our quickhull, parry's when ours meets a numerical inconsistency.
+    match hull_vertices(&flipped).or_else(|| convex_hull_vertices(&flipped)) {
+        Some(v) => v.into_iter().filter(|&i| i < points.len()).collect(),
+        None => all(),
+    }
+}
+
+/// The points flipped about the sphere of radius `radius_factor` × the farthest point's distance
+/// around `viewpoint` (moved to the origin), followed by the viewpoint; `None` for fewer than
+/// four points, all points at the viewpoint, or a factor not above 1.
+fn flipped(points: &[Point3<f64>], viewpoint: &Point3<f64>, radius_factor: f64) -> Option<Vec<Point3<f64>>> {
     let max = points.iter().map(|p| (p - viewpoint).norm()).fold(0.0, f64::max);
     if points.len() < 4 || !(max > 0.0 && radius_factor > 1.0) {
-        return all();
+        return None;
     }
     let r = radius_factor * max;
     let mut flipped: Vec<Point3<f64>> = points
@@ -52,10 +67,7 @@ pub fn visible_points(points: &[Point3<f64>], viewpoint: &Point3<f64>, radius_fa
         })
         .collect();
     flipped.push(Point3::origin());
-    match convex_hull_vertices(&flipped) {
-        Some(v) => v.into_iter().filter(|&i| i < points.len()).collect(),
-        None => all(),
-    }
+    Some(flipped)
 }
 
 #[cfg(test)]
@@ -91,5 +103,27 @@ mod tests {
         assert!(agree as f64 > 0.95 * pts.len() as f64, "{agree} of {}", pts.len());
         // No point of the far half is kept.
         assert!(vis.iter().all(|&i| pts[i].z < 1.0 + 0.2 * radius));
+    }
+
+    #[test]
+    fn our_hull_sees_what_parrys_sees() {
+        // The bottle model from around it, near and far, and the sphere at every density.
+        let (bottle, _) = crate::register::tests::bottle(6000, 3);
+        for (k, cam) in [
+            Point3::new(0.0, 0.0, -0.6),
+            Point3::new(0.4, 0.3, -0.5),
+            Point3::new(-1.5, 0.2, 0.1),
+            Point3::new(0.05, -0.2, 0.25),
+        ]
+        .iter()
+        .enumerate()
+        {
+            for factor in [10.0, 100.0, 1000.0] {
+                let f = flipped(&bottle, cam, factor).unwrap();
+                let ours = hull_vertices(&f).unwrap();
+                let parry = convex_hull_vertices(&f).unwrap();
+                assert_eq!(ours, parry, "camera {k}, factor {factor}");
+            }
+        }
     }
 }

@@ -185,6 +185,9 @@ pub struct IcpOutcome {
     pub plane_rmse_m: f64,
     /// The last gate, metres.
     pub gate_m: f64,
+    /// The gate the next iteration would use, metres: a run resumed from `t_target_source` with
+    /// this gate continues exactly where this one stopped.
+    pub next_gate_m: f64,
     /// Rotation (radians) and translation (metres) of the last step.
     pub last_step: (f64, f64),
 }
@@ -261,6 +264,7 @@ pub fn icp_point_to_plane(
         inlier_rmse_m: 0.0,
         plane_rmse_m: 0.0,
         gate_m: gate,
+        next_gate_m: gate,
         last_step: (f64::INFINITY, f64::INFINITY),
     };
     for it in 1..=cfg.max_iterations {
@@ -346,6 +350,7 @@ pub fn icp_point_to_plane(
             inlier_rmse_m: rms(&|p| p.distance),
             plane_rmse_m: rms(&|p| p.residual),
             gate_m: gate,
+            next_gate_m: new_gate,
             last_step: (omega.norm(), dt.norm()),
         };
         gate = new_gate;
@@ -361,13 +366,6 @@ pub fn icp_point_to_plane(
     Ok(out)
 }
 
-/// The nearest point of `index` to `x` if it lies within `gate`. Most of ICP's queries find a
-/// point within the gate, where kiddo's unbounded nearest-one query is about twice as fast as
-/// its bounded one (measured on the milk model); the bounded one only pays off far away.
-fn near_pair(index: &KdIndex, x: &Point3<f64>, gate: f64) -> Option<crate::spatial::Neighbour> {
-    index.nearest(x).filter(|nb| nb.distance <= gate)
-}
-
 /// Source points moved by `pose`, each with its nearest target point within `gate` (target
 /// normal), in source order.
 fn forward_pairs(src: &[Point3<f64>], pose: &Pose, target: Surfel<'_>, gate: f64) -> Vec<Pair> {
@@ -376,7 +374,7 @@ fn forward_pairs(src: &[Point3<f64>], pose: &Pose, target: Surfel<'_>, gate: f64
             let mut v = Vec::with_capacity(chunk.len());
             for p in chunk {
                 let x = pose * p;
-                if let Some(nb) = near_pair(target.index, &x, gate) {
+                if let Some(nb) = target.index.nearest_within(&x, gate) {
                     let n = target.normals[nb.index];
                     v.push(Pair {
                         x,
@@ -406,7 +404,7 @@ fn reverse_pairs(
         .map(|chunk| {
             let mut v = Vec::with_capacity(chunk.len());
             for (q, _) in chunk {
-                if let Some(nb) = near_pair(model.index, &(inv * q), gate) {
+                if let Some(nb) = model.index.nearest_within(&(inv * q), gate) {
                     let x = pose * model.points[nb.index];
                     let n = pose * model.normals[nb.index];
                     v.push(Pair {

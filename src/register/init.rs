@@ -12,7 +12,10 @@
 //! 3. each gets a short, coarse point-to-plane ICP from a few hundred scan points to the model
 //!    (scan → model, since every scanned point must lie on the model while most model points are
 //!    unseen) and is scored by the truncated RMS distance of the scan's points to the model,
-//!    `√mean(min(d², τ²))`;
+//!    `√mean(min(d², τ²))`. The coarse ICPs run in lockstep, a few iterations at a time; between
+//!    blocks a run stops when it has come within 0.1 τ of a run ahead of it (it would end where
+//!    that one ends) or when its score is out of contention (step 4's bound) with the best so far —
+//!    a bound that only bites once some run fits to near the noise floor;
 //! 4. the `refine` best distinct candidates (laying the model's major axis differently, or turned
 //!    by more than 90° — so both end-to-end orientations of a bottle get there) that are still in
 //!    contention (`refine_within`) get a longer ICP on more points and are scored again; the best
@@ -79,6 +82,30 @@ impl Default for InitConfig {
     }
 }
 
+/// Iterations the coarse ICPs run between two checks for runs that have met.
+const COARSE_BLOCK: usize = 4;
+
+/// One candidate's coarse ICP (scan → decimated model) as it goes.
+struct CoarseRun {
+    /// The candidate after its centroid and offset steps (`t_scan_reference`).
+    start: Pose,
+    /// Its score there.
+    start_score: f64,
+    /// Where the ICP is (`t_model_scan`), `None` once it has failed.
+    t_model_scan: Option<Pose>,
+    /// The gate its next iteration uses.
+    gate: f64,
+    /// Iterations left.
+    left: usize,
+    /// Neither converged, failed, out of iterations, nor redundant.
+    running: bool,
+    /// It met a run ahead of it and was dropped.
+    redundant: bool,
+    /// Once it has stopped (and is not redundant): its pose and score, or its start's when the
+    /// start scored better.
+    done: Option<(Pose, f64)>,
+}
+
 /// The chosen initial guess.
 #[derive(Debug, Clone, PartialEq)]
 pub struct InitOutcome {
@@ -90,8 +117,8 @@ pub struct InitOutcome {
     pub score_m: f64,
     /// The same for the best candidate that lays the model's major axis more than 30° from the
     /// winner's (e.g. the other end-to-end orientation), metres: how clearly the winner won. Its
-    /// refined score, or its coarse one when it was not in contention. `None` if every candidate
-    /// lays the axis as the winner does.
+    /// refined score, or its coarse one (where its coarse ICP stopped) when it was not in
+    /// contention. `None` if every candidate lays the axis as the winner does.
     pub runner_up_score_m: Option<f64>,
 }
 
@@ -233,32 +260,44 @@ pub fn initial_guess(
     };
     let full = model.surfel();
     let small_spacing = model.spacing_m * (stride as f64).sqrt();
+    let short = |iterations: usize| IcpConfig {
+        max_iterations: iterations.max(1),
+        min_gate_m: (0.1 * tau).max(1e-6),
+        gate_shrink: 0.85,
+        // A candidate only has to be ranked (and the best handed to the final ICP): steps below
+        // a hundredth of τ no longer change that.
+        rotation_tolerance_rad: 0.01 * tau / size,
+        translation_tolerance_m: (0.01 * tau).max(1e-9),
+        ..IcpConfig::default()
+    };
+    // The short ICP's pose if it scores no worse than where it started, else the start.
+    let better = |(model, spacing): (Surfel<'_>, f64),
+                  pts: &[Point3<f64>],
+                  (start, s0): (&Pose, f64),
+                  icp: Option<Pose>|
+     -> (Pose, f64) {
+        let Some(t_model_scan) = icp else {
+            return (*start, s0);
+        };
+        let p = t_model_scan.inverse();
+        let s = score(model, spacing, pts, &p, tau).0;
+        if s <= s0 { (p, s) } else { (*start, s0) }
+    };
     let refine = |(model, spacing): (Surfel<'_>, f64),
                   pts: &[Point3<f64>],
                   (pose, gate): (&Pose, f64),
                   iterations: usize|
      -> (Pose, f64) {
-        let short = IcpConfig {
-            max_iterations: iterations.max(1),
-            min_gate_m: (0.1 * tau).max(1e-6),
-            gate_shrink: 0.85,
-            // A candidate only has to be ranked (and the best handed to the final ICP): steps
-            // below a hundredth of τ no longer change that.
-            rotation_tolerance_rad: 0.01 * tau / size,
-            translation_tolerance_m: (0.01 * tau).max(1e-9),
-            ..IcpConfig::default()
-        };
         let s0 = score(model, spacing, pts, pose, tau).0;
-        match icp_point_to_plane(pts, model, None, &pose.inverse(), gate, &short) {
-            Ok(o) => {
-                let p = o.t_target_source.inverse();
-                let s = score(model, spacing, pts, &p, tau).0;
-                if s <= s0 { (p, s) } else { (*pose, s0) }
-            }
-            Err(_) => (*pose, s0),
-        }
+        let icp = icp_point_to_plane(pts, model, None, &pose.inverse(), gate, &short(iterations));
+        better(
+            (model, spacing),
+            pts,
+            (pose, s0),
+            icp.ok().map(|o| o.t_target_source),
+        )
     };
-    let mut scored: Vec<(Pose, f64)> = rotations
+    let mut coarse_runs: Vec<CoarseRun> = rotations
         .par_iter()
         .map(|r| {
             let q = UnitQuaternion::from_rotation_matrix(r);
@@ -271,21 +310,105 @@ pub fn initial_guess(
                 let (_, off) = score(small, small_spacing, &coarse, &pose, gate);
                 pose *= Translation3::from(-off);
             }
-            refine(
-                (small, small_spacing),
-                &coarse,
-                (&pose, gate),
-                cfg.coarse_iterations,
-            )
+            CoarseRun {
+                start: pose,
+                start_score: score(small, small_spacing, &coarse, &pose, tau).0,
+                t_model_scan: Some(pose.inverse()),
+                gate,
+                left: cfg.coarse_iterations.max(1),
+                running: true,
+                redundant: false,
+                done: None,
+            }
         })
+        .collect();
+    // The coarse ICPs run in lockstep, a few iterations at a time; a run that has come within
+    // 0.1 τ (the noise floor of a score) of a run ahead of it in the list would follow it to the
+    // same pose and the same score, so it stops there and is dropped.
+    let same = |a: &Pose, b: &Pose| {
+        let (a, b) = (a.inverse(), b.inverse());
+        let moved = (a * model.shape.centroid - b * model.shape.centroid).norm()
+            + a.rotation.angle_to(&b.rotation) * size;
+        moved < 0.1 * tau
+    };
+    // Candidates scoring above this, for the best score `best`, cannot win: they are not refined.
+    let contention = |best: f64| cfg.refine_within * best + 0.1 * tau;
+    let finish = |c: &CoarseRun| {
+        better(
+            (small, small_spacing),
+            &coarse,
+            (&c.start, c.start_score),
+            c.t_model_scan,
+        )
+    };
+    while coarse_runs.iter().any(|c| c.running) {
+        coarse_runs.par_iter_mut().filter(|c| c.running).for_each(|c| {
+            let run = short(c.left.min(COARSE_BLOCK));
+            let pose = c.t_model_scan.unwrap_or(c.start.inverse());
+            match icp_point_to_plane(&coarse, small, None, &pose, c.gate, &run) {
+                Ok(o) => {
+                    c.t_model_scan = Some(o.t_target_source);
+                    c.gate = o.next_gate_m;
+                    c.left = c.left.saturating_sub(o.iterations);
+                    c.running = !o.converged && c.left > 0;
+                }
+                Err(_) => {
+                    c.t_model_scan = None;
+                    c.running = false;
+                }
+            }
+            if !c.running {
+                c.done = Some(finish(c));
+            }
+        });
+        for i in 0..coarse_runs.len() {
+            let Some(p) = coarse_runs[i].t_model_scan.filter(|_| coarse_runs[i].running) else {
+                continue;
+            };
+            let ahead = &coarse_runs[..i];
+            if ahead
+                .iter()
+                .any(|c| !c.redundant && c.t_model_scan.is_some_and(|q| same(&p, &q)))
+            {
+                coarse_runs[i].running = false;
+                coarse_runs[i].redundant = true;
+            }
+        }
+        // A run still going whose score is out of contention with the best so far (the
+        // refinement's own bound, which is loose unless some run already fits to within the
+        // noise floor) stops: it will not be refined.
+        if !coarse_runs.iter().any(|c| c.running) {
+            break;
+        }
+        let now: Vec<Option<(Pose, f64)>> = coarse_runs
+            .par_iter()
+            .map(|c| c.running.then(|| finish(c)))
+            .collect();
+        let best = coarse_runs
+            .iter()
+            .zip(&now)
+            .filter_map(|(c, n)| c.done.or(*n).map(|d| d.1))
+            .fold(f64::INFINITY, f64::min);
+        let bound = contention(best);
+        for (c, n) in coarse_runs.iter_mut().zip(now) {
+            if let Some(n) = n.filter(|n| n.1 > bound) {
+                c.running = false;
+                c.done = Some(n);
+            }
+        }
+    }
+    let mut scored: Vec<(Pose, f64)> = coarse_runs
+        .iter()
+        .filter(|c| !c.redundant)
+        .filter_map(|c| c.done)
         .collect();
     scored.sort_by(|a, b| a.1.total_cmp(&b.1));
     // The best `refine` that are distinct: they lay the model's major axis differently (> 30°,
     // e.g. the two end-to-end orientations of a bottle) or differ by more than 90° overall.
     let major = model.shape.axes.column(0).into_owned();
-    let contention = cfg.refine_within * scored[0].1 + 0.1 * tau;
+    let cut = contention(scored[0].1);
     let mut chosen: Vec<(Pose, f64)> = Vec::with_capacity(cfg.refine);
-    for c in scored.iter().take_while(|c| c.1 <= contention) {
+    for c in scored.iter().take_while(|c| c.1 <= cut) {
         let distinct = chosen.iter().all(|(p, _)| {
             let axes = (p.rotation * major).angle(&(c.0.rotation * major));
             axes > 30f64.to_radians() || (p.rotation.inverse() * c.0.rotation).angle() > 90f64.to_radians()

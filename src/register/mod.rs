@@ -7,6 +7,7 @@
 //! the scan frame `S` (camera at the origin). Units: metres, degrees in reports.
 
 pub mod hidden_points;
+pub mod hull;
 pub mod icp;
 pub mod init;
 
