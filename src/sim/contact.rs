@@ -10,6 +10,11 @@
 //!   `F_r = −r·δ·tanh(‖v_t‖/v_ε)·v_t/‖v_t‖`; `r` is calibrated so that the seed's ≈ 70 N appear
 //!   at its 2 cm immersion and 0.02 m/s (`r = 70 N / (0.02 m · tanh(10)) ≈ 3500 N/m`).
 //!
+//! [`Contact::evaluate`] also returns the force's slope against the tool tip's velocity,
+//! `−∂F/∂v` (the normal damping, the regularised friction's or the soil resistance's slope),
+//! for the plant's linearly implicit step: the soil's resistance at 2 cm is a
+//! `r·δ/v_ε ≈ 35 000 N·s/m` damper at low speed, far too stiff to be held over a 1 ms step.
+//!
 //! The penetration is measured against the closest point of the true surface mesh (a parry3d
 //! BVH query through [`crate::surface::Surface`]), with the outward normal of the triangle it
 //! lies on; the wrench acts at the tool tip (no moment about it).
@@ -19,7 +24,7 @@ use crate::error::Result;
 use crate::mesh::TriangleMesh;
 use crate::spatial_algebra::Force;
 use crate::surface::Surface;
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Matrix3, Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// What the tool touches.
@@ -87,6 +92,10 @@ pub struct ContactState {
     pub depth: f64,
     /// Outward unit normal of the surface at the closest point (world).
     pub normal: Vector3<f64>,
+    /// `−∂F/∂v`: the slope of the contact force (world axes) against the tool tip's velocity
+    /// (world), N·s/m; zero out of contact. Symmetric for the soil, not for the rigid
+    /// contact's friction while the normal damping acts (`F_t` grows with `F_n`).
+    pub damping: Matrix3<f64>,
 }
 
 impl ContactState {
@@ -134,26 +143,54 @@ impl Contact {
                 wrench: Force::ZERO,
                 depth,
                 normal: n,
+                damping: Matrix3::zeros(),
             };
         }
         let c = &self.cfg;
         // δ̇ = −v·n: the tip moving against the normal goes deeper.
-        let fn_mag = (c.stiffness_n_m * depth - c.damping_n_s_m * v.dot(&n)).max(0.0);
+        let fn_raw = c.stiffness_n_m * depth - c.damping_n_s_m * v.dot(&n);
+        let fn_mag = fn_raw.max(0.0);
+        // The normal force's slope −∂F_n/∂v = c·n (none while the tip leaves faster than the
+        // spring pushes).
+        let nn = n * n.transpose();
+        let normal_slope = if fn_raw > 0.0 { c.damping_n_s_m } else { 0.0 };
+        let mut damping = nn * normal_slope;
         let vt = v - n * v.dot(&n);
         let speed = vt.norm();
+        let tangent_plane = Matrix3::identity() - nn;
+        let eps = c.velocity_epsilon_m_s;
         let tangential = match c.material {
             Material::Rigid => {
-                -vt * (c.friction * fn_mag / (speed * speed + c.velocity_epsilon_m_s.powi(2)).sqrt())
+                // F_t = −μ F_n v_t/σ, σ = √(‖v_t‖² + ε²):
+                // −∂F_t/∂v = μ F_n (P/σ − v_t v_tᵀ/σ³) − μ c (v_t/σ) nᵀ.
+                let sigma = (speed * speed + eps * eps).sqrt();
+                let w = vt / sigma;
+                damping += (tangent_plane - w * w.transpose()) * (c.friction * fn_mag / sigma)
+                    - w * n.transpose() * (c.friction * normal_slope);
+                -vt * (c.friction * fn_mag / sigma)
             }
-            Material::Soil if speed > 0.0 => {
-                -vt / speed * (c.soil_resistance_n_m * depth * (speed / c.velocity_epsilon_m_s).tanh())
+            Material::Soil => {
+                // F_r = −r δ tanh(s/ε) v_t/s (s = ‖v_t‖): −∂F_r/∂v = (rδ/ε)·(a P + (sech² − a) û ûᵀ),
+                // a = tanh(s/ε)/(s/ε) (→ 1 at rest, where the direction û drops out).
+                let x = speed / eps;
+                let th = x.tanh();
+                let a = if x > 1e-8 { th / x } else { 1.0 };
+                let scale = c.soil_resistance_n_m * depth / eps;
+                damping += tangent_plane * (scale * a);
+                if speed > 0.0 {
+                    let u = vt / speed;
+                    damping += u * u.transpose() * (scale * (1.0 - th * th - a));
+                    -u * (c.soil_resistance_n_m * depth * th)
+                } else {
+                    Vector3::zeros()
+                }
             }
-            Material::Soil => Vector3::zeros(),
         };
         ContactState {
             wrench: Force::new(n * fn_mag + tangential, Vector3::zeros()),
             depth,
             normal: n,
+            damping,
         }
     }
 }
@@ -215,6 +252,64 @@ mod tests {
         // Twice as deep, twice the resistance.
         let d = c.evaluate(&Point3::new(0.0, 0.0, 0.04), &Vector3::new(0.0, 0.02, 0.0));
         assert!((d.wrench.lin.y / s.wrench.lin.y - 2.0).abs() < 1e-9);
+    }
+
+    /// `−∂F/∂v` by central differences of [`Contact::evaluate`].
+    fn damping_by_differences(c: &mut Contact, tip: &Point3<f64>, v: &Vector3<f64>) -> Matrix3<f64> {
+        let h = 1e-8;
+        Matrix3::from_fn(|i, j| {
+            let mut dv = Vector3::zeros();
+            dv[j] = h;
+            let (plus, minus) = (c.evaluate(tip, &(v + dv)), c.evaluate(tip, &(v - dv)));
+            -(plus.wrench.lin[i] - minus.wrench.lin[i]) / (2.0 * h)
+        })
+    }
+
+    #[test]
+    fn velocity_slope_matches_finite_differences() {
+        // Soil and rigid contact, at rest, slow (inside the regularisation), fast, sliding with
+        // a normal velocity, and leaving faster than the spring pushes (no force, no slope).
+        let soil = ContactConfig {
+            material: Material::Soil,
+            stiffness_n_m: 2000.0,
+            ..ContactConfig::default()
+        };
+        let velocities = [
+            Vector3::zeros(),
+            Vector3::new(0.0007, -0.0004, 0.0),
+            Vector3::new(0.0015, 0.001, 0.003),
+            Vector3::new(0.02, 0.005, -0.01),
+            Vector3::new(-0.003, 0.0, 0.5),
+            Vector3::new(-0.003, 0.0, -5.0),
+        ];
+        for cfg in [ContactConfig::default(), soil] {
+            let mut c = Contact::new(&floor(), &cfg).unwrap();
+            let tip = Point3::new(0.1, -0.2, 0.02);
+            for v in &velocities {
+                let s = c.evaluate(&tip, v);
+                let fd = damping_by_differences(&mut c, &tip, v);
+                let scale = 1.0 + fd.amax();
+                assert!(
+                    (s.damping - fd).amax() < 1e-5 * scale,
+                    "{:?} at {v:?}: {} vs {}",
+                    cfg.material,
+                    s.damping,
+                    fd
+                );
+            }
+            // The soil's resistance at rest is a r·δ/ε damper in the tangent plane.
+            if cfg.material == Material::Soil {
+                let s = c.evaluate(&tip, &Vector3::zeros());
+                let d = 3500.0 * 0.02 / 0.002;
+                assert!((s.damping[(0, 0)] - d).abs() < 1e-6 * d && (s.damping[(2, 2)] - 50.0).abs() < 1e-9);
+            }
+        }
+        let mut c = Contact::new(&floor(), &soil).unwrap();
+        assert_eq!(
+            c.evaluate(&Point3::new(0.0, 0.0, -0.01), &Vector3::zeros())
+                .damping,
+            Matrix3::zeros()
+        );
     }
 
     #[test]
