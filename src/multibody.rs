@@ -112,8 +112,8 @@ pub struct Accelerations {
 /// ([`Multibody::accelerations_implicit`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ToolDamping {
-    /// `D = −∂F/∂v`: the force's (world axes) slope against the tool point's velocity (world),
-    /// N·s/m.
+    /// `D ≈ −∂F/∂v`: the force's (world axes) slope against the tool point's velocity (world),
+    /// N·s/m; symmetric (the contact's, [`crate::sim::contact::ContactState::damping`]).
     pub damping: Matrix3<f64>,
     /// `J = ∂v/∂ζ`: the tool point's velocity (world) per generalised velocity
     /// ([`Multibody::tool_point_jacobian`]).
@@ -270,17 +270,15 @@ impl Multibody {
     }
 
     /// [`Multibody::accelerations_friction_implicit`] with the environment's force on the tool
-    /// point linearly implicit too: the force over the step taken as `F + ∂F/∂v Δv` with
-    /// `Δv = J h ζ̇`, i.e. `h Jᵀ D J` added to the system matrix (`D = −∂F/∂v`, `J` the tool
+    /// point linearly implicit too: the force over the step taken as `F − D Δv` with
+    /// `Δv = J h ζ̇`, i.e. `h Jᵀ D J` added to the system matrix (`D ≈ −∂F/∂v`, `J` the tool
     /// point's Jacobian, see [`ToolDamping`]). A stiff damper at the tool (the soil's resistance
     /// at low speed, tens of thousands of N·s/m) held over the step overshoots and makes the
     /// force alternate in sign every step; implicitly it settles. `tool_force` holds the force
-    /// of the step, `F − D h J ζ̇`. With a `D` that is not symmetric (the rigid contact's friction
-    /// growing with the normal damping) the system is solved by LU instead of Cholesky.
+    /// of the step, `F − D h J ζ̇`. `D` must be symmetric (Cholesky reads one triangle).
     ///
     /// # Errors
-    /// [`Error::Failed`] (stage `dynamics`) if the system matrix is singular (not positive
-    /// definite for a symmetric one).
+    /// [`Error::Failed`] (stage `dynamics`) if the system matrix is not positive definite.
     pub fn accelerations_implicit(
         &self,
         s: &State,
@@ -318,16 +316,11 @@ impl Multibody {
             let dj = t.damping * t.jacobian * h;
             (t, dj)
         });
-        let symmetric = tool.is_none_or(|(t, _)| t.damping == t.damping.transpose());
         if let Some((t, dj)) = &tool {
             mass += t.jacobian.transpose() * dj;
         }
-        let zd = if symmetric {
-            solve_spd(mass, &rhs)
-        } else {
-            mass.lu().solve(&rhs)
-        }
-        .ok_or_else(|| Error::failed("dynamics", "the mass matrix is not positive definite"))?;
+        let zd = solve_spd(mass, &rhs)
+            .ok_or_else(|| Error::failed("dynamics", "the mass matrix is not positive definite"))?;
         let qdd: JointVector = zd.fixed_rows::<N_JOINTS>(6).into_owned();
         let tool_force = match &tool {
             Some((_, dj)) => u.f_env_on_tool - Force::new(dj * zd, Vector3::zeros()),
@@ -581,9 +574,9 @@ mod tests {
 
     #[test]
     fn implicit_tool_force_is_the_force_the_accelerations_answer() {
-        // With a stiff damper at the tool (symmetric, and not: the rigid friction's coupling to
-        // the normal damping) the accelerations of the linearly implicit step are those of the
-        // dynamics with the tool force held at the step's `F − D h J ζ̇` (which differs from `F`).
+        // With a stiff damper at the tool (the soil's at rest) the accelerations of the linearly
+        // implicit step are those of the dynamics with the tool force held at the step's
+        // `F − D h J ζ̇` (which differs from `F`).
         let sys = Multibody::new(&UvmsModel::default()).unwrap();
         let s = moving();
         let (t, _, arm_jacobian) = sys.tool_kinematics(&s);
@@ -593,34 +586,28 @@ mod tests {
             f_env_on_tool: Force::new(Vector3::new(-60.0, 10.0, -40.0), Vector3::zeros()),
         };
         let n = Vector3::new(0.0, 0.0, -1.0);
-        let tangential = (Matrix3::identity() - n * n.transpose()) * 35_000.0;
-        for d in [
-            tangential + n * n.transpose() * 50.0,
-            tangential + Vector3::new(4.0, 1.0, 0.0) * n.transpose(),
-        ] {
-            let tool = ToolDamping {
-                damping: d,
-                jacobian: sys.tool_point_jacobian(&s, &t, &arm_jacobian),
-            };
-            let a = sys.accelerations_implicit(&s, &u, 1e-3, Some(&tool)).unwrap();
-            let dv = tool.jacobian
-                * GenVector::from_fn(|i, _| if i < 6 { a.nu_dot[i] } else { a.qdd[i - 6] })
-                * 1e-3;
-            assert!((a.tool_force.lin - (u.f_env_on_tool.lin - d * dv)).norm() < 1e-9);
-            assert!((a.tool_force.lin - u.f_env_on_tool.lin).norm() > 1.0);
-            let explicit = Inputs {
-                f_env_on_tool: a.tool_force,
-                ..u
-            };
-            let b = sys.accelerations_friction_implicit(&s, &explicit, 1e-3).unwrap();
-            assert!(
-                (a.nu_dot - b.nu_dot).norm() < 1e-8 && (a.qdd - b.qdd).norm() < 1e-8,
-                "{} {}",
-                a.qdd,
-                b.qdd
-            );
-            assert!((a.shaft_torque - b.shaft_torque).norm() < 1e-8);
-        }
+        let d = (Matrix3::identity() - n * n.transpose()) * 35_000.0 + n * n.transpose() * 50.0;
+        let tool = ToolDamping {
+            damping: d,
+            jacobian: sys.tool_point_jacobian(&s, &t, &arm_jacobian),
+        };
+        let a = sys.accelerations_implicit(&s, &u, 1e-3, Some(&tool)).unwrap();
+        let dv =
+            tool.jacobian * GenVector::from_fn(|i, _| if i < 6 { a.nu_dot[i] } else { a.qdd[i - 6] }) * 1e-3;
+        assert!((a.tool_force.lin - (u.f_env_on_tool.lin - d * dv)).norm() < 1e-9);
+        assert!((a.tool_force.lin - u.f_env_on_tool.lin).norm() > 1.0);
+        let explicit = Inputs {
+            f_env_on_tool: a.tool_force,
+            ..u
+        };
+        let b = sys.accelerations_friction_implicit(&s, &explicit, 1e-3).unwrap();
+        assert!(
+            (a.nu_dot - b.nu_dot).norm() < 1e-8 && (a.qdd - b.qdd).norm() < 1e-8,
+            "{} {}",
+            a.qdd,
+            b.qdd
+        );
+        assert!((a.shaft_torque - b.shaft_torque).norm() < 1e-8);
     }
 
     #[test]
