@@ -311,13 +311,18 @@ impl Multibody {
         for j in 0..N_JOINTS {
             rhs[6 + j] += u.tau_drive[j] - friction[j];
         }
-        // The tool's damper over the step: `D h J` (3 × 12) and `Jᵀ (D h J)` in the matrix.
-        let tool = tool.filter(|_| h != 0.0).map(|t| {
-            let dj = t.damping * t.jacobian * h;
-            (t, dj)
-        });
+        // The tool's damper over the step: `D h J` (3 × 12) and `Jᵀ (D h J)` in the matrix, the
+        // triangle `solve_spd` reads (row ≤ column) only: the rank-3 update of a symmetric matrix.
+        let tool = tool
+            .filter(|_| h != 0.0)
+            .map(|t| (t, (t.damping * h) * t.jacobian));
         if let Some((t, dj)) = &tool {
-            mass += t.jacobian.transpose() * dj;
+            let j = &t.jacobian;
+            for c in 0..NDOF {
+                for r in 0..=c {
+                    mass[(r, c)] += j[(0, r)] * dj[(0, c)] + j[(1, r)] * dj[(1, c)] + j[(2, r)] * dj[(2, c)];
+                }
+            }
         }
         let zd = solve_spd(mass, &rhs)
             .ok_or_else(|| Error::failed("dynamics", "the mass matrix is not positive definite"))?;
