@@ -24,9 +24,9 @@ use crate::arm::{Arm, BaseMotion, JointVector};
 use crate::body::Body;
 use crate::error::{Error, Result};
 use crate::model::{N_JOINTS, UvmsModel};
-use crate::spatial_algebra::{Force, Inertia, Motion, Xform};
+use crate::spatial_algebra::{Force, Inertia, Motion, Xform, skew};
 use crate::vehicle::hydro::vehicle_body;
-use nalgebra::{Isometry3, Matrix6, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{Isometry3, Matrix3, Matrix6, Quaternion, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
 
 /// Degrees of freedom of the floating system.
 pub const NDOF: usize = 6 + N_JOINTS;
@@ -102,6 +102,22 @@ pub struct Accelerations {
     /// The torque at each joint's output shaft (what a one-axis joint-torque sensor reads, the
     /// paper's `M_dz`): `τ_drive − G² Jm q̈ − τ_friction`, N·m.
     pub shaft_torque: JointVector,
+    /// The environment's wrench on the tool that goes with the accelerations (world axes,
+    /// about the tool point): the input's, or in a linearly implicit step with [`ToolDamping`]
+    /// the one at the step's end velocity to first order, `F − D h J ζ̇`.
+    pub tool_force: Force,
+}
+
+/// The slope of a velocity-dependent force on the tool point, for a linearly implicit step
+/// ([`Multibody::accelerations_implicit`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolDamping {
+    /// `D ≈ −∂F/∂v`: the force's (world axes) slope against the tool point's velocity (world),
+    /// N·s/m; symmetric (the contact's, [`crate::sim::contact::ContactState::damping`]).
+    pub damping: Matrix3<f64>,
+    /// `J = ∂v/∂ζ`: the tool point's velocity (world) per generalised velocity
+    /// ([`Multibody::tool_point_jacobian`]).
+    pub jacobian: SMatrix<f64, 3, NDOF>,
 }
 
 /// The floating vehicle–manipulator system built from a model.
@@ -236,7 +252,7 @@ impl Multibody {
     /// # Errors
     /// [`Error::Failed`] (stage `dynamics`) if the mass matrix is not positive definite.
     pub fn accelerations(&self, s: &State, u: &Inputs) -> Result<Accelerations> {
-        self.accelerations_friction_implicit(s, u, 0.0)
+        self.accelerations_implicit(s, u, 0.0, None)
     }
 
     /// The accelerations of one step of `h` seconds with the joint friction linearly implicit:
@@ -250,6 +266,26 @@ impl Multibody {
     /// # Errors
     /// [`Error::Failed`] (stage `dynamics`) if `H + h D` is not positive definite.
     pub fn accelerations_friction_implicit(&self, s: &State, u: &Inputs, h: f64) -> Result<Accelerations> {
+        self.accelerations_implicit(s, u, h, None)
+    }
+
+    /// [`Multibody::accelerations_friction_implicit`] with the environment's force on the tool
+    /// point linearly implicit too: the force over the step taken as `F − D Δv` with
+    /// `Δv = J h ζ̇`, i.e. `h Jᵀ D J` added to the system matrix (`D ≈ −∂F/∂v`, `J` the tool
+    /// point's Jacobian, see [`ToolDamping`]). A stiff damper at the tool (the soil's resistance
+    /// at low speed, tens of thousands of N·s/m) held over the step overshoots and makes the
+    /// force alternate in sign every step; implicitly it settles. `tool_force` holds the force
+    /// of the step, `F − D h J ζ̇`. `D` must be symmetric (Cholesky reads one triangle).
+    ///
+    /// # Errors
+    /// [`Error::Failed`] (stage `dynamics`) if the system matrix is not positive definite.
+    pub fn accelerations_implicit(
+        &self,
+        s: &State,
+        u: &Inputs,
+        h: f64,
+        tool: Option<&ToolDamping>,
+    ) -> Result<Accelerations> {
         let k = self.kinematics(s);
         let bias = self.rnea(s, &k, &GenVector::zeros(), &u.f_env_on_tool, None);
         let mut mass = self.mass_matrix_from(&k.xs);
@@ -275,9 +311,26 @@ impl Multibody {
         for j in 0..N_JOINTS {
             rhs[6 + j] += u.tau_drive[j] - friction[j];
         }
+        // The tool's damper over the step: `D h J` (3 × 12) and `Jᵀ (D h J)` in the matrix, the
+        // triangle `solve_spd` reads (row ≤ column) only: the rank-3 update of a symmetric matrix.
+        let tool = tool
+            .filter(|_| h != 0.0)
+            .map(|t| (t, (t.damping * h) * t.jacobian));
+        if let Some((t, dj)) = &tool {
+            let j = &t.jacobian;
+            for c in 0..NDOF {
+                for r in 0..=c {
+                    mass[(r, c)] += j[(0, r)] * dj[(0, c)] + j[(1, r)] * dj[(1, c)] + j[(2, r)] * dj[(2, c)];
+                }
+            }
+        }
         let zd = solve_spd(mass, &rhs)
             .ok_or_else(|| Error::failed("dynamics", "the mass matrix is not positive definite"))?;
         let qdd: JointVector = zd.fixed_rows::<N_JOINTS>(6).into_owned();
+        let tool_force = match &tool {
+            Some((_, dj)) => u.f_env_on_tool - Force::new(dj * zd, Vector3::zeros()),
+            None => u.f_env_on_tool,
+        };
         let friction = if h != 0.0 {
             friction + slope.component_mul(&qdd)
         } else {
@@ -287,6 +340,7 @@ impl Multibody {
             nu_dot: zd.fixed_rows::<6>(0).into_owned(),
             qdd,
             shaft_torque: u.tau_drive - self.arm.armature().component_mul(&qdd) - friction,
+            tool_force,
         })
     }
 
@@ -394,6 +448,30 @@ impl Multibody {
         )
     }
 
+    /// `J = ∂v/∂ζ`: the velocity of the tool point (world axes) per generalised velocity, from
+    /// the tool's pose `t_world_tool` at `s` and the arm's Jacobian of the tool point
+    /// `arm_jacobian` (base frame), both as [`Multibody::tool_kinematics`] gives them:
+    /// `v = R (ν_1 + ν_2 × p) + R_0 J_v q̇`.
+    pub fn tool_point_jacobian(
+        &self,
+        s: &State,
+        t_world_tool: &Isometry3<f64>,
+        arm_jacobian: &Matrix6<f64>,
+    ) -> SMatrix<f64, 3, NDOF> {
+        let r = s.t_world_body.rotation.to_rotation_matrix().into_inner();
+        let r_w0 = (s.t_world_body.rotation * self.arm.t_body_base.rotation)
+            .to_rotation_matrix()
+            .into_inner();
+        // ω × p in world axes: −[p_w]× R ω_C, p_w the tool point from C's origin.
+        let p_w = t_world_tool.translation.vector - s.t_world_body.translation.vector;
+        let mut j = SMatrix::<f64, 3, NDOF>::zeros();
+        j.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
+        j.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-skew(&p_w) * r));
+        j.fixed_view_mut::<3, N_JOINTS>(0, 6)
+            .copy_from(&(r_w0 * arm_jacobian.fixed_rows::<3>(0)));
+        j
+    }
+
     /// The kinematic rates of the configuration: `ṗ = R ν_1` (world, `R` from the normalised
     /// `q`) and the quaternion rate `½ q ⊗ [0; ν_2]` (of `q` as given, normalised or not).
     pub fn pose_rate(q: &Quaternion<f64>, nu: &Vector6<f64>) -> (Vector3<f64>, Quaternion<f64>) {
@@ -446,11 +524,8 @@ mod tests {
     use super::*;
     use crate::integrate::exp_twist;
 
-    #[test]
-    fn tool_velocity_is_the_rate_of_the_tool_pose() {
-        let m = UvmsModel::default();
-        let sys = Multibody::new(&m).unwrap();
-        let s = State {
+    fn moving() -> State {
+        State {
             t_world_body: Isometry3::from_parts(
                 Vector3::new(0.5, 1.0, 3.0).into(),
                 UnitQuaternion::from_euler_angles(0.2, -0.1, 1.0),
@@ -458,7 +533,14 @@ mod tests {
             nu: Vector6::new(0.3, -0.2, 0.1, 0.2, -0.1, 0.3),
             q: JointVector::new(0.2, 0.9, -2.0, 0.3, 0.8, -0.2),
             qd: JointVector::new(0.4, -0.3, 0.5, -0.6, 0.7, 0.8),
-        };
+        }
+    }
+
+    #[test]
+    fn tool_velocity_is_the_rate_of_the_tool_pose() {
+        let m = UvmsModel::default();
+        let sys = Multibody::new(&m).unwrap();
+        let s = moving();
         let h = 1e-6;
         let moved = State {
             t_world_body: exp_twist(&s.t_world_body, &s.nu, h),
@@ -484,6 +566,53 @@ mod tests {
         let mut bad = h;
         bad[(7, 7)] = -1.0;
         assert!(solve_spd(bad, &b).is_none());
+    }
+
+    #[test]
+    fn tool_point_jacobian_gives_the_tool_velocity() {
+        let sys = Multibody::new(&UvmsModel::default()).unwrap();
+        let s = moving();
+        let (t, v, arm_jacobian) = sys.tool_kinematics(&s);
+        let j = sys.tool_point_jacobian(&s, &t, &arm_jacobian);
+        assert!((j * s.zeta() - v.fixed_rows::<3>(0)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn implicit_tool_force_is_the_force_the_accelerations_answer() {
+        // With a stiff damper at the tool (the soil's at rest) the accelerations of the linearly
+        // implicit step are those of the dynamics with the tool force held at the step's
+        // `F − D h J ζ̇` (which differs from `F`).
+        let sys = Multibody::new(&UvmsModel::default()).unwrap();
+        let s = moving();
+        let (t, _, arm_jacobian) = sys.tool_kinematics(&s);
+        let u = Inputs {
+            tau_drive: JointVector::new(10.0, -40.0, 20.0, 3.0, -2.0, 1.0),
+            body_wrench: Force::new(Vector3::new(30.0, 0.0, -10.0), Vector3::new(0.0, 5.0, 0.0)),
+            f_env_on_tool: Force::new(Vector3::new(-60.0, 10.0, -40.0), Vector3::zeros()),
+        };
+        let n = Vector3::new(0.0, 0.0, -1.0);
+        let d = (Matrix3::identity() - n * n.transpose()) * 35_000.0 + n * n.transpose() * 50.0;
+        let tool = ToolDamping {
+            damping: d,
+            jacobian: sys.tool_point_jacobian(&s, &t, &arm_jacobian),
+        };
+        let a = sys.accelerations_implicit(&s, &u, 1e-3, Some(&tool)).unwrap();
+        let dv =
+            tool.jacobian * GenVector::from_fn(|i, _| if i < 6 { a.nu_dot[i] } else { a.qdd[i - 6] }) * 1e-3;
+        assert!((a.tool_force.lin - (u.f_env_on_tool.lin - d * dv)).norm() < 1e-9);
+        assert!((a.tool_force.lin - u.f_env_on_tool.lin).norm() > 1.0);
+        let explicit = Inputs {
+            f_env_on_tool: a.tool_force,
+            ..u
+        };
+        let b = sys.accelerations_friction_implicit(&s, &explicit, 1e-3).unwrap();
+        assert!(
+            (a.nu_dot - b.nu_dot).norm() < 1e-8 && (a.qdd - b.qdd).norm() < 1e-8,
+            "{} {}",
+            a.qdd,
+            b.qdd
+        );
+        assert!((a.shaft_torque - b.shaft_torque).norm() < 1e-8);
     }
 
     #[test]

@@ -5,7 +5,8 @@
 //! 1. the drive torques are clipped to the joints' torque limits;
 //! 2. the multibody is integrated over `dt` (RK4 or semi-implicit Euler, see
 //!    [`crate::integrate`]) with the thrusters' present wrench, the drive torques and the
-//!    environment's tool wrench held (zero-order hold);
+//!    environment's tool wrench held (zero-order hold), or, in the semi-implicit step, its
+//!    velocity dependence linearly implicit ([`Plant::step_with_tool_damping`]);
 //! 3. the thrusters' rotors follow their commands over `dt` (exact first-order lag).
 //!
 //! A state that stops being finite ends the run with [`crate::Error::Failed`] (stage `sim`).
@@ -14,7 +15,7 @@ use crate::arm::JointVector;
 use crate::error::{Error, Result};
 use crate::integrate::{Integrator, exp_twist, rk4};
 use crate::model::{N_JOINTS, UvmsModel};
-use crate::multibody::{Accelerations, Inputs, Multibody, State};
+use crate::multibody::{Accelerations, Inputs, Multibody, State, ToolDamping};
 use crate::spatial_algebra::Force;
 use crate::vehicle::thrusters::Thrusters;
 use nalgebra::{Isometry3, Quaternion, SVector, Translation3, UnitQuaternion, Vector3, Vector6};
@@ -84,6 +85,23 @@ impl Plant {
     /// [`Error::Input`] for a wrong thrust command or a non-positive `dt`; [`Error::Failed`]
     /// (stage `sim`) if the state stops being finite or the mass matrix loses definiteness.
     pub fn step(&mut self, dt: f64, input: &PlantInput) -> Result<StepReport> {
+        self.step_with_tool_damping(dt, input, None)
+    }
+
+    /// [`Plant::step`] with the environment's tool force depending on the tool point's velocity
+    /// with the slope `tool` (−∂F/∂v and the tool point's Jacobian at the step's start): the
+    /// semi-implicit Euler step takes it linearly implicit
+    /// ([`Multibody::accelerations_implicit`]), the force applied over the step is the report's
+    /// `accelerations.tool_force`; RK4 holds `input.f_env_on_tool` (explicit).
+    ///
+    /// # Errors
+    /// As [`Plant::step`].
+    pub fn step_with_tool_damping(
+        &mut self,
+        dt: f64,
+        input: &PlantInput,
+        tool: Option<&ToolDamping>,
+    ) -> Result<StepReport> {
         if !(dt > 0.0 && dt.is_finite()) {
             return Err(Error::input("dt", "must be a positive number of seconds"));
         }
@@ -108,7 +126,7 @@ impl Plant {
                 (unpack(&x), acc)
             }
             Integrator::SemiImplicitEuler => {
-                let acc = self.system.accelerations_friction_implicit(&self.state, &u, dt)?;
+                let acc = self.system.accelerations_implicit(&self.state, &u, dt, tool)?;
                 let s = &self.state;
                 let nu = s.nu + acc.nu_dot * dt;
                 let qd = s.qd + acc.qdd * dt;

@@ -10,6 +10,12 @@
 //!   `F_r = −r·δ·tanh(‖v_t‖/v_ε)·v_t/‖v_t‖`; `r` is calibrated so that the seed's ≈ 70 N appear
 //!   at its 2 cm immersion and 0.02 m/s (`r = 70 N / (0.02 m · tanh(10)) ≈ 3500 N/m`).
 //!
+//! [`Contact::evaluate`] also returns the force's slope against the tool tip's velocity
+//! ([`ContactState::damping`]: the normal damping, the regularised friction's or the soil
+//! resistance's secant slope) for the plant's linearly implicit step: the soil's resistance at
+//! 2 cm is a `r·δ/v_ε ≈ 35 000 N·s/m` damper at low speed, far too stiff to be held over a
+//! 1 ms step.
+//!
 //! The penetration is measured against the closest point of the true surface mesh (a parry3d
 //! BVH query through [`crate::surface::Surface`]), with the outward normal of the triangle it
 //! lies on; the wrench acts at the tool tip (no moment about it).
@@ -19,7 +25,7 @@ use crate::error::Result;
 use crate::mesh::TriangleMesh;
 use crate::spatial_algebra::Force;
 use crate::surface::Surface;
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Matrix3, Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// What the tool touches.
@@ -87,6 +93,18 @@ pub struct ContactState {
     pub depth: f64,
     /// Outward unit normal of the surface at the closest point (world).
     pub normal: Vector3<f64>,
+    /// `D`, the contact force's (world axes) slope against the tool tip's velocity (world) for
+    /// the plant's linearly implicit step, N·s/m; zero out of contact. Along the normal the
+    /// damping `c` (`−∂F/∂v`), in the tangent plane the secant slope `C` of the friction or the
+    /// soil's resistance, `F_t = −C·v_t`: equal to `−∂F/∂v` across the sliding direction,
+    /// larger along it (`tanh` is concave). With the secant the force of a step, `F − D·Δv`,
+    /// is `−C·v_t` at the step's end velocity: it never drives the tool, whatever the step.
+    /// (The tangent slope along the sliding direction vanishes at speeds of a few `ε`: a tool
+    /// braking from there overshot zero speed and made the force swing, 14 N·m of moment
+    /// identification error in the soil run's retreat against 8.7 with the secant.) The
+    /// friction's growth with the normal damping is left explicit. Symmetric, positive
+    /// semi-definite.
+    pub damping: Matrix3<f64>,
 }
 
 impl ContactState {
@@ -134,26 +152,47 @@ impl Contact {
                 wrench: Force::ZERO,
                 depth,
                 normal: n,
+                damping: Matrix3::zeros(),
             };
         }
         let c = &self.cfg;
         // δ̇ = −v·n: the tip moving against the normal goes deeper.
-        let fn_mag = (c.stiffness_n_m * depth - c.damping_n_s_m * v.dot(&n)).max(0.0);
+        let fn_raw = c.stiffness_n_m * depth - c.damping_n_s_m * v.dot(&n);
+        let fn_mag = fn_raw.max(0.0);
+        // The normal force's slope −∂F_n/∂v = c·n (none while the tip leaves faster than the
+        // spring pushes).
+        let nn = n * n.transpose();
+        let normal_slope = if fn_raw > 0.0 { c.damping_n_s_m } else { 0.0 };
         let vt = v - n * v.dot(&n);
         let speed = vt.norm();
-        let tangential = match c.material {
+        let eps = c.velocity_epsilon_m_s;
+        // The tangential force is `−C·v_t` with a secant slope `C ≥ 0`.
+        let (tangential, secant) = match c.material {
             Material::Rigid => {
-                -vt * (c.friction * fn_mag / (speed * speed + c.velocity_epsilon_m_s.powi(2)).sqrt())
+                // F_t = −μ F_n v_t/σ, σ = √(‖v_t‖² + ε²).
+                let sigma = (speed * speed + eps * eps).sqrt();
+                let slope = c.friction * fn_mag / sigma;
+                (-vt * slope, slope)
             }
-            Material::Soil if speed > 0.0 => {
-                -vt / speed * (c.soil_resistance_n_m * depth * (speed / c.velocity_epsilon_m_s).tanh())
+            Material::Soil => {
+                // F_r = −r δ tanh(s/ε) v_t/s (s = ‖v_t‖): C = (rδ/ε)·tanh(s/ε)/(s/ε), rδ/ε at rest.
+                let x = speed / eps;
+                let th = x.tanh();
+                let a = if x > 1e-8 { th / x } else { 1.0 };
+                let tangential = if speed > 0.0 {
+                    -vt / speed * (c.soil_resistance_n_m * depth * th)
+                } else {
+                    Vector3::zeros()
+                };
+                (tangential, c.soil_resistance_n_m * depth / eps * a)
             }
-            Material::Soil => Vector3::zeros(),
         };
+        let damping = nn * normal_slope + (Matrix3::identity() - nn) * secant;
         ContactState {
             wrench: Force::new(n * fn_mag + tangential, Vector3::zeros()),
             depth,
             normal: n,
+            damping,
         }
     }
 }
@@ -215,6 +254,79 @@ mod tests {
         // Twice as deep, twice the resistance.
         let d = c.evaluate(&Point3::new(0.0, 0.0, 0.04), &Vector3::new(0.0, 0.02, 0.0));
         assert!((d.wrench.lin.y / s.wrench.lin.y - 2.0).abs() < 1e-9);
+    }
+
+    /// `−∂F/∂v` by central differences of [`Contact::evaluate`].
+    fn slope_by_differences(c: &mut Contact, tip: &Point3<f64>, v: &Vector3<f64>) -> Matrix3<f64> {
+        let h = 1e-8;
+        Matrix3::from_fn(|i, j| {
+            let mut dv = Vector3::zeros();
+            dv[j] = h;
+            let (plus, minus) = (c.evaluate(tip, &(v + dv)), c.evaluate(tip, &(v - dv)));
+            -(plus.wrench.lin[i] - minus.wrench.lin[i]) / (2.0 * h)
+        })
+    }
+
+    #[test]
+    fn velocity_slope_is_the_derivative_across_the_sliding_and_the_secant_along_it() {
+        // Soil and rigid contact, at rest, slow (inside the regularisation), fast, sliding with
+        // a normal velocity, and leaving faster than the spring pushes (no force, no slope).
+        let soil = ContactConfig {
+            material: Material::Soil,
+            stiffness_n_m: 2000.0,
+            ..ContactConfig::default()
+        };
+        let velocities = [
+            Vector3::zeros(),
+            Vector3::new(0.0007, -0.0004, 0.0),
+            Vector3::new(0.0015, 0.001, 0.003),
+            Vector3::new(0.02, 0.005, -0.01),
+            Vector3::new(-0.003, 0.0, 0.5),
+            Vector3::new(-0.003, 0.0, -5.0),
+        ];
+        let n = Vector3::new(0.0, 0.0, -1.0);
+        for cfg in [ContactConfig::default(), soil] {
+            let mut c = Contact::new(&floor(), &cfg).unwrap();
+            let tip = Point3::new(0.1, -0.2, 0.02);
+            for v in &velocities {
+                let s = c.evaluate(&tip, v);
+                let d = s.damping;
+                assert_eq!(d, d.transpose());
+                let fd = slope_by_differences(&mut c, &tip, v);
+                let tol = 1e-5 * (1.0 + fd.amax());
+                let vt = Vector3::new(v.x, v.y, 0.0);
+                // Along the normal (the force's response to the normal velocity and the
+                // friction's to it left aside) and across the sliding direction: −∂F/∂v.
+                let across = n.cross(&vt).try_normalize(0.0).unwrap_or(Vector3::x());
+                let fd_normal = if s.wrench.lin.z < 0.0 {
+                    cfg.damping_n_s_m
+                } else {
+                    0.0
+                };
+                assert!(
+                    (n.dot(&(d * n)) - fd_normal).abs() < tol && (n.dot(&(fd * n)) - fd_normal).abs() < tol
+                );
+                assert!(
+                    (d * across - fd * across).amax() < tol,
+                    "{:?} at {v:?}: {d} vs {fd}",
+                    cfg.material
+                );
+                // Along it: the secant, F_t = −D v_t.
+                assert!((d * vt + Vector3::new(s.wrench.lin.x, s.wrench.lin.y, 0.0)).amax() < 1e-9);
+            }
+            // The soil's resistance at rest is a r·δ/ε damper in the tangent plane.
+            if cfg.material == Material::Soil {
+                let s = c.evaluate(&tip, &Vector3::zeros());
+                let d = 3500.0 * 0.02 / 0.002;
+                assert!((s.damping[(0, 0)] - d).abs() < 1e-6 * d && (s.damping[(2, 2)] - 50.0).abs() < 1e-9);
+            }
+        }
+        let mut c = Contact::new(&floor(), &soil).unwrap();
+        assert_eq!(
+            c.evaluate(&Point3::new(0.0, 0.0, -0.01), &Vector3::zeros())
+                .damping,
+            Matrix3::zeros()
+        );
     }
 
     #[test]

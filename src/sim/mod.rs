@@ -41,7 +41,7 @@ use crate::error::{Error, Result};
 use crate::integrate::Integrator;
 use crate::mesh::TriangleMesh;
 use crate::model::UvmsModel;
-use crate::multibody::{Accelerations, Inputs, Multibody, State};
+use crate::multibody::{Accelerations, Inputs, Multibody, State, ToolDamping};
 use crate::plant::{Plant, PlantInput};
 use crate::spatial_algebra::Force;
 use crate::trajectory::{Phase, Trajectory};
@@ -520,12 +520,41 @@ pub fn simulate(
         if alloc.scale < 1.0 {
             saturated += 1;
         }
-        // The plant: contact against the true surface, then the step.
+        // The plant: contact against the true surface, then the step, the contact's velocity
+        // dependence linearly implicit. The true contact force of the period (logged, and the
+        // true external moments) is the one applied over the first substep, which the joints'
+        // shaft torques answer.
         let state = plant.state;
-        let (t_world_tool, mut cs, jacobian) = touch(&mut contact, &plant.system, &state);
+        let logged_thrusts = k
+            .is_multiple_of(log_every)
+            .then(|| plant.thrusters.thrusts().to_vec());
+        let (t_world_tool, mut cs, jacobian, damping) = touch(&mut contact, &plant.system, &state);
+        let mut first_acc = None;
+        for sub in 0..cfg.plant_substeps {
+            let (contact_now, damping_now) = if sub > 0 {
+                let (_, c, _, d) = touch(&mut contact, &plant.system, &plant.state);
+                (c, d)
+            } else {
+                (cs, damping)
+            };
+            let input = PlantInput {
+                tau_drive: tau,
+                thrust_cmd: &alloc.thrusts,
+                f_env_on_tool: contact_now.wrench,
+            };
+            let report = plant
+                .step_with_tool_damping(sub_dt, &input, damping_now.as_ref())
+                .map_err(|e| diverged(&e, t, &plant.state))?;
+            first_acc.get_or_insert(report.accelerations);
+        }
+        check_runaway(&plant.state, &h, t + dt)?;
+        if let Some(acc) = &first_acc {
+            truth_prev = truth_of(&state, acc, g);
+            cs.wrench = acc.tool_force;
+        }
         let tip = t_world_tool.translation.vector;
         let m_ez_true = external_moments(&plant.system, &state, &jacobian, &cs.wrench.lin);
-        if k.is_multiple_of(log_every) {
+        if let Some(thrusts) = &logged_thrusts {
             rec.push(Row::new(&record::RowInput {
                 t,
                 clock,
@@ -540,7 +569,7 @@ pub fn simulate(
                 f_env_true: &cs.wrench.lin,
                 f_imp_est: &f_imp_est,
                 t_world_tool: &t_world_tool,
-                thrusts: plant.thrusters.thrusts(),
+                thrusts,
                 in_contact: cs.in_contact(),
             }));
         }
@@ -560,25 +589,6 @@ pub fn simulate(
             r: (state.t_world_body.translation.vector - h.translation.vector).norm(),
             attitude: state.t_world_body.rotation.angle_to(&h.rotation),
         });
-        let mut first_acc = None;
-        for sub in 0..cfg.plant_substeps {
-            if sub > 0 {
-                cs = touch(&mut contact, &plant.system, &plant.state).1;
-            }
-            let input = PlantInput {
-                tau_drive: tau,
-                thrust_cmd: &alloc.thrusts,
-                f_env_on_tool: cs.wrench,
-            };
-            let report = plant
-                .step(sub_dt, &input)
-                .map_err(|e| diverged(&e, t, &plant.state))?;
-            first_acc.get_or_insert(report.accelerations);
-        }
-        check_runaway(&plant.state, &h, t + dt)?;
-        if let Some(acc) = &first_acc {
-            truth_prev = truth_of(&state, acc, g);
-        }
         m_ez_true_prev = m_ez_true;
         // The trajectory's clock: it waits at the end of a dwell until the force has settled.
         let next = clock + dt;
@@ -640,16 +650,27 @@ fn held_station(hover: &Hover, specific_force: Vector3<f64>) -> sensors::Measure
     }
 }
 
-/// The true tool pose at `s`, the contact there and the arm's Jacobian of the tool point.
+/// The true tool pose at `s`, the contact there, the arm's Jacobian of the tool point and, in
+/// contact, the contact force's slope against the tool point's velocity mapped to the whole
+/// system's generalised velocity (for the plant's linearly implicit step).
 fn touch(
     contact: &mut Contact,
     system: &Multibody,
     s: &State,
-) -> (Isometry3<f64>, contact::ContactState, Matrix6<f64>) {
+) -> (
+    Isometry3<f64>,
+    contact::ContactState,
+    Matrix6<f64>,
+    Option<ToolDamping>,
+) {
     let (t_world_tool, v, jacobian) = system.tool_kinematics(s);
     let v = v.fixed_rows::<3>(0).into_owned();
     let state = contact.evaluate(&t_world_tool.translation.vector.into(), &v);
-    (t_world_tool, state, jacobian)
+    let damping = state.in_contact().then(|| ToolDamping {
+        damping: state.damping,
+        jacobian: system.tool_point_jacobian(s, &t_world_tool, &jacobian),
+    });
+    (t_world_tool, state, jacobian, damping)
 }
 
 /// What the sensors read of `s` with the accelerations `acc` of its step (gravity `g`).
