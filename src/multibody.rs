@@ -286,6 +286,25 @@ impl Multibody {
         h: f64,
         tool: Option<&ToolDamping>,
     ) -> Result<Accelerations> {
+        Ok(self.step_accelerations(s, u, h, tool, false)?.0)
+    }
+
+    /// [`Multibody::accelerations_implicit`] and, with `instant`, the explicit accelerations at
+    /// `s` too — what the state and the inputs give at that instant (`H ζ̇ = rhs`, the same
+    /// matrix and right-hand side without the step's slopes, one more Cholesky solve): an
+    /// instrument sampling the system at `s` reads these, not the step's average. `None`
+    /// without `instant` or where they are the step's (`h = 0`, no slopes).
+    ///
+    /// # Errors
+    /// As [`Multibody::accelerations_implicit`].
+    pub fn step_accelerations(
+        &self,
+        s: &State,
+        u: &Inputs,
+        h: f64,
+        tool: Option<&ToolDamping>,
+        instant: bool,
+    ) -> Result<(Accelerations, Option<Accelerations>)> {
         let k = self.kinematics(s);
         let bias = self.rnea(s, &k, &GenVector::zeros(), &u.f_env_on_tool, None);
         let mut mass = self.mass_matrix_from(&k.xs);
@@ -298,6 +317,7 @@ impl Multibody {
             }
             (f, d * h)
         };
+        let explicit_mass = (instant && h != 0.0).then_some(mass);
         if h != 0.0 {
             for j in 0..N_JOINTS {
                 mass[(6 + j, 6 + j)] += slope[j];
@@ -324,24 +344,36 @@ impl Multibody {
                 }
             }
         }
-        let zd = solve_spd(mass, &rhs)
-            .ok_or_else(|| Error::failed("dynamics", "the mass matrix is not positive definite"))?;
+        let not_definite = || Error::failed("dynamics", "the mass matrix is not positive definite");
+        let zd = solve_spd(mass, &rhs).ok_or_else(not_definite)?;
         let qdd: JointVector = zd.fixed_rows::<N_JOINTS>(6).into_owned();
         let tool_force = match &tool {
             Some((_, dj)) => u.f_env_on_tool - Force::new(dj * zd, Vector3::zeros()),
             None => u.f_env_on_tool,
+        };
+        let accelerations = |zd: &GenVector, friction: JointVector, tool_force: Force| {
+            let qdd: JointVector = zd.fixed_rows::<N_JOINTS>(6).into_owned();
+            Accelerations {
+                nu_dot: zd.fixed_rows::<6>(0).into_owned(),
+                qdd,
+                shaft_torque: u.tau_drive - self.arm.armature().component_mul(&qdd) - friction,
+                tool_force,
+            }
+        };
+        let at_instant = match explicit_mass {
+            Some(m) => Some(accelerations(
+                &solve_spd(m, &rhs).ok_or_else(not_definite)?,
+                friction,
+                u.f_env_on_tool,
+            )),
+            None => None,
         };
         let friction = if h != 0.0 {
             friction + slope.component_mul(&qdd)
         } else {
             friction
         };
-        Ok(Accelerations {
-            nu_dot: zd.fixed_rows::<6>(0).into_owned(),
-            qdd,
-            shaft_torque: u.tau_drive - self.arm.armature().component_mul(&qdd) - friction,
-            tool_force,
-        })
+        Ok((accelerations(&zd, friction, tool_force), at_instant))
     }
 
     /// Kinetic energy `½ ζᵀ H ζ` of the bodies, the water they carry (added mass) and the

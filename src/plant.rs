@@ -35,11 +35,19 @@ pub struct PlantInput<'a> {
     pub f_env_on_tool: Force,
 }
 
-/// What happened at the start of a step.
+/// What happened over a step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepReport {
-    /// Accelerations and joint output-shaft torques at the start of the step.
+    /// The accelerations the step integrated, with the shaft torques and the tool force of the
+    /// step: RK4's first evaluation; for semi-implicit Euler the linearly implicit ones (the
+    /// friction and the tool force at the step's end velocity, to first order).
     pub accelerations: Accelerations,
+    /// The accelerations and shaft torques at the step's start, what instruments sampling the
+    /// plant at that instant read: the state and the inputs there give them. RK4's first
+    /// evaluation; for semi-implicit Euler the explicit solve at the start state (not the
+    /// step's: a joint held by the steep friction answers a step of its drive torque at once
+    /// by `H⁻¹ Δτ`, which the implicit step spreads over the step as `(H + h D)⁻¹ Δτ`).
+    pub sample: Accelerations,
     /// The drive torques applied after clipping, N·m.
     pub tau_applied: JointVector,
     /// The thrusters' wrench applied over the step (`C` axes, about `C`'s origin).
@@ -114,7 +122,7 @@ impl Plant {
             body_wrench: self.thrusters.wrench(),
             f_env_on_tool: input.f_env_on_tool,
         };
-        let (next, acc) = match self.integrator {
+        let (next, acc, sample) = match self.integrator {
             Integrator::Rk4 => {
                 let mut first = None;
                 let x = rk4(&pack(&self.state), dt, |x| {
@@ -123,10 +131,10 @@ impl Plant {
                     Ok::<_, Error>(rate)
                 })?;
                 let acc = first.ok_or_else(|| Error::failed("sim", "RK4 made no evaluation"))?;
-                (unpack(&x), acc)
+                (unpack(&x), acc, acc)
             }
             Integrator::SemiImplicitEuler => {
-                let acc = self.system.accelerations_implicit(&self.state, &u, dt, tool)?;
+                let (acc, sample) = self.system.step_accelerations(&self.state, &u, dt, tool, true)?;
                 let s = &self.state;
                 let nu = s.nu + acc.nu_dot * dt;
                 let qd = s.qd + acc.qdd * dt;
@@ -136,7 +144,7 @@ impl Plant {
                     q: s.q + qd * dt,
                     qd,
                 };
-                (next, acc)
+                (next, acc, sample.unwrap_or(acc))
             }
         };
         if !next.is_finite() {
@@ -150,6 +158,7 @@ impl Plant {
         self.time += dt;
         Ok(StepReport {
             accelerations: acc,
+            sample,
             tau_applied: tau,
             thruster_wrench: u.body_wrench,
         })

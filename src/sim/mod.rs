@@ -521,14 +521,15 @@ pub fn simulate(
             saturated += 1;
         }
         // The plant: contact against the true surface, then the step, the contact's velocity
-        // dependence linearly implicit. The true contact force of the period (logged, and the
-        // true external moments) is the one applied over the first substep, which the joints'
-        // shaft torques answer.
+        // dependence linearly implicit. The sensors sample the plant at the period's start
+        // (`StepReport::sample`), so the true contact force of the period (logged, and the
+        // true external moments) is the one at that instant, which the sampled shaft torques
+        // answer.
         let state = plant.state;
         let logged_thrusts = k
             .is_multiple_of(log_every)
             .then(|| plant.thrusters.thrusts().to_vec());
-        let (t_world_tool, mut cs, jacobian, damping) = touch(&mut contact, &plant.system, &state);
+        let (t_world_tool, cs, jacobian, damping) = touch(&mut contact, &plant.system, &state);
         let mut first_acc = None;
         for sub in 0..cfg.plant_substeps {
             let (contact_now, damping_now) = if sub > 0 {
@@ -545,12 +546,11 @@ pub fn simulate(
             let report = plant
                 .step_with_tool_damping(sub_dt, &input, damping_now.as_ref())
                 .map_err(|e| diverged(&e, t, &plant.state))?;
-            first_acc.get_or_insert(report.accelerations);
+            first_acc.get_or_insert(report.sample);
         }
         check_runaway(&plant.state, &h, t + dt)?;
         if let Some(acc) = &first_acc {
             truth_prev = truth_of(&state, acc, g);
-            cs.wrench = acc.tool_force;
         }
         let tip = t_world_tool.translation.vector;
         let m_ez_true = external_moments(&plant.system, &state, &jacobian, &cs.wrench.lin);
