@@ -5,7 +5,7 @@
 use nalgebra::{Cholesky, Isometry3, Matrix6, UnitQuaternion, Vector3, Vector6};
 use uvms::arm::{BaseMotion, JointVector};
 use uvms::integrate::{Integrator, exp_twist};
-use uvms::model::UvmsModel;
+use uvms::model::{N_JOINTS, UvmsModel};
 use uvms::multibody::{GenVector, Inputs, Multibody, State};
 use uvms::plant::{Plant, PlantInput};
 use uvms::spatial_algebra::Force;
@@ -580,5 +580,34 @@ fn implicit_soil_resistance_drags_the_tool_without_chatter_or_energy_gain() {
         assert!(changes <= 4, "{changes} sign changes");
         assert!(least_power >= 0.0, "{least_power}");
         assert!((v - creep).abs() < 0.05 * creep, "{v} vs {creep}");
+    }
+}
+
+#[test]
+fn the_sensors_sample_the_instant_not_the_implicit_step() {
+    // A drive torque stepped to 0.3 of the Coulomb level on a joint at rest: the report's
+    // sample (what the sensors read at the step's start) is the instant's explicit
+    // accelerations and shaft torques, not the implicit step's.
+    let model = friction_only_model();
+    let sys = Multibody::new(&model).unwrap();
+    let start = State::at_rest(Isometry3::identity(), moving_state().q);
+    for j in 0..N_JOINTS {
+        let mut p = Plant::new(&model, start, Integrator::SemiImplicitEuler).unwrap();
+        let mut tau = JointVector::zeros();
+        tau[j] = 0.3 * sys.arm.links[j].coulomb[0];
+        let cmd = vec![0.0; p.thrusters.len()];
+        let input = PlantInput {
+            tau_drive: tau,
+            thrust_cmd: &cmd,
+            f_env_on_tool: Force::ZERO,
+        };
+        let report = p.step(1e-3, &input).unwrap();
+        let u = Inputs {
+            tau_drive: tau,
+            ..Inputs::default()
+        };
+        let instant = sys.accelerations(&start, &u).unwrap();
+        assert!((report.sample.qdd - instant.qdd).norm() <= 1e-9 * instant.qdd.norm());
+        assert!((report.sample.shaft_torque - instant.shaft_torque).norm() <= 1e-9);
     }
 }
