@@ -6,7 +6,7 @@
 //! single-view sensor sees its surface. Runs in parallel (rayon); the result does not depend on the
 //! number of threads. Units: metres.
 
-use crate::cloud::pca::{mean_covariance_of, sorted_eigen};
+use crate::cloud::pca::{least_eigenvector, mean_covariance_of};
 use crate::spatial::KdIndex;
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
@@ -56,8 +56,7 @@ pub fn estimate_normals(
             let Some((_, cov)) = mean_covariance_of(points, nb.iter().map(|n| n.index)) else {
                 return towards;
             };
-            let (_, axes) = sorted_eigen(&cov);
-            let n: Vector3<f64> = axes.column(2).into_owned();
+            let n = least_eigenvector(&cov);
             match n.try_normalize(1e-300) {
                 Some(n) if n.dot(&towards) < 0.0 => -n,
                 Some(n) => n,
