@@ -24,7 +24,7 @@ pub enum Integrator {
     Rk4,
     /// Semi-implicit Euler on the configuration manifold, 1 evaluation per step, with the
     /// joints' friction linearly implicit (see
-    /// [`crate::multibody::Multibody::accelerations_friction_implicit`]).
+    /// [`crate::multibody::Multibody::step_accelerations`]).
     #[default]
     SemiImplicitEuler,
 }

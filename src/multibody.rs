@@ -109,7 +109,7 @@ pub struct Accelerations {
 }
 
 /// The slope of a velocity-dependent force on the tool point, for a linearly implicit step
-/// ([`Multibody::accelerations_implicit`]).
+/// ([`Multibody::step_accelerations`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ToolDamping {
     /// `D ≈ −∂F/∂v`: the force's (world axes) slope against the tool point's velocity (world),
@@ -252,74 +252,50 @@ impl Multibody {
     /// # Errors
     /// [`Error::Failed`] (stage `dynamics`) if the mass matrix is not positive definite.
     pub fn accelerations(&self, s: &State, u: &Inputs) -> Result<Accelerations> {
-        self.accelerations_implicit(s, u, 0.0, None)
+        Ok(self.step_accelerations(s, u, 0.0, None)?.0)
     }
 
-    /// The accelerations of one step of `h` seconds with the joint friction linearly implicit:
-    /// the friction over the step taken as `F(q̇) + φ D h q̈` (`D = ∂F/∂q̇`, the slope of the
-    /// smoothed Coulomb and viscous friction), i.e. `(H + φ h D) ζ̇ = rhs`, exponentially fitted:
+    /// The accelerations of one semi-implicit step of `h` seconds from `s`, and the explicit
+    /// ones at `s` ([`Multibody::accelerations`]: what the state and the inputs give at that
+    /// instant, what an instrument sampling the system there reads, not the step's average).
+    ///
+    /// In the step the joint friction is linearly implicit: the friction over the step is
+    /// taken as `F(q̇) + φ D h q̈` (`D = ∂F/∂q̇`, the slope of the smoothed Coulomb and viscous
+    /// friction), i.e. `(H + φ h D) ζ̇ = rhs`, exponentially fitted:
     /// `φ = (x / (1 − e^(−x)) − 1) / x` with `x = h D (H⁻¹)_jj`, so that a joint's rate decays
     /// over the step as the continuous system's does (`φ = 1`, plain implicit Euler, damps it
     /// 10 % too much on the PUMA's joints held near rest). The smoothed Coulomb friction is
     /// steep (`Tc/ε` N·m·s/rad); explicitly, a joint at rest under a load below the Coulomb
     /// level overshoots zero every step and its acceleration alternates in sign, implicitly it
-    /// settles. `shaft_torque` holds the friction of the step, `F + φ D h q̈`. `h = 0` is
-    /// [`Multibody::accelerations`].
+    /// settles. `shaft_torque` holds the friction of the step, `F + φ D h q̈`.
+    ///
+    /// With `tool` the environment's force on the tool point is linearly implicit too: the
+    /// force over the step taken as `F − D Δv` with `Δv = J h ζ̇`, i.e. `h Jᵀ D J` added to the
+    /// system matrix (`D ≈ −∂F/∂v`, `J` the tool point's Jacobian, see [`ToolDamping`]). A stiff
+    /// damper at the tool (the soil's resistance at low speed, tens of thousands of N·s/m) held
+    /// over the step overshoots and makes the force alternate in sign every step; implicitly it
+    /// settles. `tool_force` holds the force of the step, `F − D h J ζ̇`. `D` must be symmetric
+    /// (Cholesky reads one triangle). `h = 0` gives the explicit accelerations twice.
     ///
     /// # Errors
-    /// [`Error::Failed`] (stage `dynamics`) if `H` or `H + φ h D` is not positive definite.
-    pub fn accelerations_friction_implicit(&self, s: &State, u: &Inputs, h: f64) -> Result<Accelerations> {
-        self.accelerations_implicit(s, u, h, None)
-    }
-
-    /// [`Multibody::accelerations_friction_implicit`] with the environment's force on the tool
-    /// point linearly implicit too: the force over the step taken as `F − D Δv` with
-    /// `Δv = J h ζ̇`, i.e. `h Jᵀ D J` added to the system matrix (`D ≈ −∂F/∂v`, `J` the tool
-    /// point's Jacobian, see [`ToolDamping`]). A stiff damper at the tool (the soil's resistance
-    /// at low speed, tens of thousands of N·s/m) held over the step overshoots and makes the
-    /// force alternate in sign every step; implicitly it settles. `tool_force` holds the force
-    /// of the step, `F − D h J ζ̇`. `D` must be symmetric (Cholesky reads one triangle).
-    ///
-    /// # Errors
-    /// [`Error::Failed`] (stage `dynamics`) if the system matrix is not positive definite.
-    pub fn accelerations_implicit(
-        &self,
-        s: &State,
-        u: &Inputs,
-        h: f64,
-        tool: Option<&ToolDamping>,
-    ) -> Result<Accelerations> {
-        Ok(self.step_accelerations(s, u, h, tool, false)?.0)
-    }
-
-    /// [`Multibody::accelerations_implicit`] and, with `instant`, the explicit accelerations at
-    /// `s` too — what the state and the inputs give at that instant (`H ζ̇ = rhs`, the same
-    /// matrix and right-hand side without the step's slopes, one more Cholesky solve): an
-    /// instrument sampling the system at `s` reads these, not the step's average. `None`
-    /// without `instant` or where they are the step's (`h = 0`, no slopes).
-    ///
-    /// # Errors
-    /// As [`Multibody::accelerations_implicit`].
+    /// [`Error::Failed`] (stage `dynamics`) if `H` or the step's matrix is not positive
+    /// definite.
     pub fn step_accelerations(
         &self,
         s: &State,
         u: &Inputs,
         h: f64,
         tool: Option<&ToolDamping>,
-        instant: bool,
-    ) -> Result<(Accelerations, Option<Accelerations>)> {
+    ) -> Result<(Accelerations, Accelerations)> {
         let k = self.kinematics(s);
         let bias = self.rnea(s, &k, &GenVector::zeros(), &u.f_env_on_tool, None);
         let mut mass = self.mass_matrix_from(&k.xs);
         let eps = Some(self.arm.coulomb_smoothing);
-        let (friction, slope) = {
-            let mut f = JointVector::zeros();
-            let mut d = JointVector::zeros();
-            for (j, link) in self.arm.links.iter().enumerate() {
-                (f[j], d[j]) = link.friction(s.qd[j], eps);
-            }
-            (f, d * h)
-        };
+        let (mut friction, mut slope) = (JointVector::zeros(), JointVector::zeros());
+        for (j, link) in self.arm.links.iter().enumerate() {
+            let (f, d) = link.friction(s.qd[j], eps);
+            (friction[j], slope[j]) = (f, d * h);
+        }
         let not_definite = || Error::failed("dynamics", "the mass matrix is not positive definite");
         // The explicit matrix's factor: the instant's accelerations, and each joint's effective
         // inertia on the floating system, `1 / (H⁻¹)_jj`.
@@ -328,7 +304,6 @@ impl Multibody {
         } else {
             None
         };
-        let mut slope = slope;
         if let Some(f) = &explicit {
             // Exponentially fitted: a joint's own friction slope decays its rate as `e^(−x)`
             // over the step, `x = h D (H⁻¹)_jj`; `H + φ h D` with
@@ -382,15 +357,12 @@ impl Multibody {
                 tool_force,
             }
         };
-        let at_instant = explicit
-            .filter(|_| instant)
-            .map(|f| accelerations(&f.solve(&rhs), friction, u.f_env_on_tool));
-        let friction = if h != 0.0 {
-            friction + slope.component_mul(&qdd)
-        } else {
-            friction
+        let step = accelerations(&zd, friction + slope.component_mul(&qdd), tool_force);
+        let at_instant = match &explicit {
+            Some(f) => accelerations(&f.solve(&rhs), friction, u.f_env_on_tool),
+            None => step,
         };
-        Ok((accelerations(&zd, friction, tool_force), at_instant))
+        Ok((step, at_instant))
     }
 
     /// Kinetic energy `½ ζᵀ H ζ` of the bodies, the water they carry (added mass) and the
@@ -680,7 +652,7 @@ mod tests {
             damping: d,
             jacobian: sys.tool_point_jacobian(&s, &t, &arm_jacobian),
         };
-        let a = sys.accelerations_implicit(&s, &u, 1e-3, Some(&tool)).unwrap();
+        let a = sys.step_accelerations(&s, &u, 1e-3, Some(&tool)).unwrap().0;
         let dv =
             tool.jacobian * GenVector::from_fn(|i, _| if i < 6 { a.nu_dot[i] } else { a.qdd[i - 6] }) * 1e-3;
         assert!((a.tool_force.lin - (u.f_env_on_tool.lin - d * dv)).norm() < 1e-9);
@@ -689,7 +661,7 @@ mod tests {
             f_env_on_tool: a.tool_force,
             ..u
         };
-        let b = sys.accelerations_friction_implicit(&s, &explicit, 1e-3).unwrap();
+        let b = sys.step_accelerations(&s, &explicit, 1e-3, None).unwrap().0;
         assert!(
             (a.nu_dot - b.nu_dot).norm() < 1e-8 && (a.qdd - b.qdd).norm() < 1e-8,
             "{} {}",

@@ -99,7 +99,7 @@ impl Plant {
     /// [`Plant::step`] with the environment's tool force depending on the tool point's velocity
     /// with the slope `tool` (−∂F/∂v and the tool point's Jacobian at the step's start): the
     /// semi-implicit Euler step takes it linearly implicit
-    /// ([`Multibody::accelerations_implicit`]), the force applied over the step is the report's
+    /// ([`Multibody::step_accelerations`]), the force applied over the step is the report's
     /// `accelerations.tool_force`; RK4 holds `input.f_env_on_tool` (explicit).
     ///
     /// # Errors
@@ -134,7 +134,7 @@ impl Plant {
                 (unpack(&x), acc, acc)
             }
             Integrator::SemiImplicitEuler => {
-                let (acc, sample) = self.system.step_accelerations(&self.state, &u, dt, tool, true)?;
+                let (acc, sample) = self.system.step_accelerations(&self.state, &u, dt, tool)?;
                 let s = &self.state;
                 let nu = s.nu + acc.nu_dot * dt;
                 let qd = s.qd + acc.qdd * dt;
@@ -144,7 +144,7 @@ impl Plant {
                     q: s.q + qd * dt,
                     qd,
                 };
-                (next, acc, sample.unwrap_or(acc))
+                (next, acc, sample)
             }
         };
         if !next.is_finite() {

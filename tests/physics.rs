@@ -151,24 +151,37 @@ fn friction_only_model() -> UvmsModel {
     m
 }
 
+/// A plant of [`friction_only_model`] at rest in [`moving_state`]'s configuration but for joint
+/// `j`'s rate `qd_j`, and the drive torques loading joint `j` with `frac` of its Coulomb level.
+fn joint_under_load(j: usize, frac: f64, qd_j: f64) -> (Plant, JointVector) {
+    let mut start = State::at_rest(Isometry3::identity(), moving_state().q);
+    start.qd[j] = qd_j;
+    let p = Plant::new(&friction_only_model(), start, Integrator::SemiImplicitEuler).unwrap();
+    let mut tau = JointVector::zeros();
+    tau[j] = frac * p.system.arm.links[j].coulomb[0];
+    (p, tau)
+}
+
+/// One step of `p` under the drive torques `tau`, the thrusters idle and the tool free.
+fn step_without_thrust(p: &mut Plant, tau: &JointVector, dt: f64) -> uvms::plant::StepReport {
+    let cmd = vec![0.0; p.thrusters.len()];
+    let input = PlantInput {
+        tau_drive: *tau,
+        thrust_cmd: &cmd,
+        f_env_on_tool: Force::ZERO,
+    };
+    p.step(dt, &input).unwrap()
+}
+
 /// The number of sign changes of `qdd[j]` after the first `skip` steps of a 1 s run at `dt`
 /// from rest with joint `j` loaded by half its Coulomb level, and the joint's final rate;
 /// `implicit`: the plant's semi-implicit Euler, else the same step with explicit friction.
 fn loaded_joint(j: usize, dt: f64, implicit: bool) -> (usize, f64) {
-    let start = State::at_rest(Isometry3::identity(), moving_state().q);
-    let mut p = Plant::new(&friction_only_model(), start, Integrator::SemiImplicitEuler).unwrap();
-    let mut tau = JointVector::zeros();
-    tau[j] = 0.5 * p.system.arm.links[j].coulomb[0];
-    let cmd = vec![0.0; p.thrusters.len()];
+    let (mut p, tau) = joint_under_load(j, 0.5, 0.0);
     let (mut prev, mut changes) = (0.0, 0);
     for k in 0..(1.0 / dt).round() as usize {
         let qdd = if implicit {
-            let input = PlantInput {
-                tau_drive: tau,
-                thrust_cmd: &cmd,
-                f_env_on_tool: Force::ZERO,
-            };
-            p.step(dt, &input).unwrap().accelerations.qdd[j]
+            step_without_thrust(&mut p, &tau, dt).accelerations.qdd[j]
         } else {
             let u = Inputs {
                 tau_drive: tau,
@@ -588,20 +601,10 @@ fn the_sensors_sample_the_instant_not_the_implicit_step() {
     // A drive torque stepped to 0.3 of the Coulomb level on a joint at rest: the report's
     // sample (what the sensors read at the step's start) is the instant's explicit
     // accelerations and shaft torques, not the implicit step's.
-    let model = friction_only_model();
-    let sys = Multibody::new(&model).unwrap();
-    let start = State::at_rest(Isometry3::identity(), moving_state().q);
     for j in 0..N_JOINTS {
-        let mut p = Plant::new(&model, start, Integrator::SemiImplicitEuler).unwrap();
-        let mut tau = JointVector::zeros();
-        tau[j] = 0.3 * sys.arm.links[j].coulomb[0];
-        let cmd = vec![0.0; p.thrusters.len()];
-        let input = PlantInput {
-            tau_drive: tau,
-            thrust_cmd: &cmd,
-            f_env_on_tool: Force::ZERO,
-        };
-        let report = p.step(1e-3, &input).unwrap();
+        let (mut p, tau) = joint_under_load(j, 0.3, 0.0);
+        let (sys, start) = (p.system.clone(), p.state);
+        let report = step_without_thrust(&mut p, &tau, 1e-3);
         let u = Inputs {
             tau_drive: tau,
             ..Inputs::default()
@@ -615,19 +618,9 @@ fn the_sensors_sample_the_instant_not_the_implicit_step() {
 /// Joint `j`'s rate after `t` seconds in steps of `dt` from rest with its drive torque stepped to
 /// `frac` of its Coulomb level (friction the only loss).
 fn held_joint_rate(j: usize, frac: f64, t: f64, dt: f64) -> f64 {
-    let mut start = State::at_rest(Isometry3::identity(), moving_state().q);
-    start.qd[j] = 1e-9;
-    let mut p = Plant::new(&friction_only_model(), start, Integrator::SemiImplicitEuler).unwrap();
-    let mut tau = JointVector::zeros();
-    tau[j] = frac * p.system.arm.links[j].coulomb[0];
-    let cmd = vec![0.0; p.thrusters.len()];
-    let input = PlantInput {
-        tau_drive: tau,
-        thrust_cmd: &cmd,
-        f_env_on_tool: Force::ZERO,
-    };
+    let (mut p, tau) = joint_under_load(j, frac, 1e-9);
     for _ in 0..(t / dt).round() as usize {
-        p.step(dt, &input).unwrap();
+        step_without_thrust(&mut p, &tau, dt);
     }
     p.state.qd[j]
 }

@@ -155,7 +155,7 @@ impl DriveFilter {
         self.state = None;
     }
 
-    /// The joint accelerations and rates at the measurement: the rates `qd`, the torque
+    /// The joint accelerations at the measurement: the rates `qd`, the torque
     /// sensors `m_dz` and the drive torques `tau` (clipped to the limits), with `arm` the
     /// controller's model, `jump` the accelerations' jump that the change of `tau` since the
     /// last period makes (`H⁻¹ Δτ`), `h_inv_diag` the diagonal of `H⁻¹` (`H` the inertia with
@@ -171,7 +171,7 @@ impl DriveFilter {
         m_dz: &JointVector,
         noise: &DriveNoise,
         dt: f64,
-    ) -> (JointVector, JointVector) {
+    ) -> JointVector {
         let eps = arm.coulomb_smoothing;
         let r = Matrix2::new(noise.rate.powi(2), 0.0, 0.0, noise.torque.powi(2));
         let q = Matrix3::from_diagonal(&Vector3::new(
@@ -187,7 +187,6 @@ impl DriveFilter {
             std::array::from_fn(|i| (Vector3::new(qd[i], 0.0, 0.0), p0))
         });
         let mut acc = JointVector::zeros();
-        let mut rate = *qd;
         for (i, (x, p)) in joints.iter_mut().enumerate() {
             let l = &arm.links[i];
             let ia = l.armature;
@@ -232,9 +231,8 @@ impl DriveFilter {
             *p = ikh * p_prior * ikh.transpose() + gain * r * gain.transpose();
             *x = xi;
             acc[i] = x[1];
-            rate[i] = x[0];
         }
-        (acc, rate)
+        acc
     }
 }
 
@@ -553,7 +551,7 @@ impl Icu {
                         self.tau_last = Some(tau);
                         let jump = h_inv.fixed_view::<6, 6>(6, 6) * change;
                         let diag = JointVector::from_fn(|i, _| h_inv[(6 + i, 6 + i)]);
-                        let (qdd, _) = self
+                        let qdd = self
                             .observer
                             .update(arm, &tau, &jump, &diag, &m.qd, &m.m_dz, &noise, dt);
                         self.base_steps.last = self.base_steps.sum;

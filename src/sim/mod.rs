@@ -526,10 +526,44 @@ pub fn simulate(
         // true external moments) is the one at that instant, which the sampled shaft torques
         // answer.
         let state = plant.state;
-        let logged_thrusts = k
-            .is_multiple_of(log_every)
-            .then(|| plant.thrusters.thrusts().to_vec());
         let (t_world_tool, cs, jacobian, damping) = touch(&mut contact, &plant.system, &state);
+        let tip = t_world_tool.translation.vector;
+        let m_ez_true = external_moments(&plant.system, &state, &jacobian, &cs.wrench.lin);
+        if k.is_multiple_of(log_every) {
+            rec.push(Row::new(&record::RowInput {
+                t,
+                clock,
+                sample: &s,
+                offset,
+                state: &state,
+                hover: &h,
+                q_ref: &joints.q_ref,
+                tau: &tau,
+                m_ez_true: &m_ez_true_prev,
+                m_ez_id: &id.m_ez,
+                f_env_true: &cs.wrench.lin,
+                f_imp_est: &f_imp_est,
+                t_world_tool: &t_world_tool,
+                thrusts: plant.thrusters.thrusts(),
+                in_contact: cs.in_contact(),
+            }));
+        }
+        rec.observe(&record::Observation {
+            phase: s.phase,
+            t,
+            f_k_true: -s.k.dot(&cs.wrench.lin),
+            f_norm: cs.wrench.lin.norm(),
+            f_k_id: s.k.dot(&f_imp_est),
+            in_contact: cs.in_contact(),
+            m_ez_error: (id.m_ez - m_ez_true_prev).amax(),
+            deviation: (tip - target.translation.vector).norm(),
+            path_error: {
+                let d = tip - s.position.coords;
+                (d - s.k * s.k.dot(&d)).norm()
+            },
+            r: (state.t_world_body.translation.vector - h.translation.vector).norm(),
+            attitude: state.t_world_body.rotation.angle_to(&h.rotation),
+        });
         let mut first_acc = None;
         for sub in 0..cfg.plant_substeps {
             let (contact_now, damping_now) = if sub > 0 {
@@ -552,43 +586,6 @@ pub fn simulate(
         if let Some(acc) = &first_acc {
             truth_prev = truth_of(&state, acc, g);
         }
-        let tip = t_world_tool.translation.vector;
-        let m_ez_true = external_moments(&plant.system, &state, &jacobian, &cs.wrench.lin);
-        if let Some(thrusts) = &logged_thrusts {
-            rec.push(Row::new(&record::RowInput {
-                t,
-                clock,
-                sample: &s,
-                offset,
-                state: &state,
-                hover: &h,
-                q_ref: &joints.q_ref,
-                tau: &tau,
-                m_ez_true: &m_ez_true_prev,
-                m_ez_id: &id.m_ez,
-                f_env_true: &cs.wrench.lin,
-                f_imp_est: &f_imp_est,
-                t_world_tool: &t_world_tool,
-                thrusts,
-                in_contact: cs.in_contact(),
-            }));
-        }
-        rec.observe(&record::Observation {
-            phase: s.phase,
-            t,
-            f_k_true: -s.k.dot(&cs.wrench.lin),
-            f_norm: cs.wrench.lin.norm(),
-            f_k_id: s.k.dot(&f_imp_est),
-            in_contact: cs.in_contact(),
-            m_ez_error: (id.m_ez - m_ez_true_prev).amax(),
-            deviation: (tip - target.translation.vector).norm(),
-            path_error: {
-                let d = tip - s.position.coords;
-                (d - s.k * s.k.dot(&d)).norm()
-            },
-            r: (state.t_world_body.translation.vector - h.translation.vector).norm(),
-            attitude: state.t_world_body.rotation.angle_to(&h.rotation),
-        });
         m_ez_true_prev = m_ez_true;
         // The trajectory's clock: it waits at the end of a dwell until the force has settled.
         let next = clock + dt;
