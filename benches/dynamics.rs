@@ -2,8 +2,9 @@
 //! rigid PUMA 560 of the reference, as Pinocchio's figures: RNEA 1.05 µs, CRBA 0.55 µs, ABA
 //! 2.3 µs on this machine class), the same underwater (added mass, strip drag, buoyancy), one
 //! forward-dynamics evaluation of the whole floating system, FK/Jacobian/IK (all solutions, and
-//! the nearest alone) and one plant step (RK4 and semi-implicit Euler). After criterion's report, a table of the *minimum* time per call over 200 batches,
-//! which stays stable on a shared, loaded machine where criterion's means do not.
+//! the nearest alone) and one plant step (RK4 and semi-implicit Euler). After criterion's report,
+//! a table of the *minimum* time per call over 200 batches, which stays stable on a shared,
+//! loaded machine where criterion's means do not.
 //!
 //! `cargo bench --bench dynamics`
 

@@ -82,33 +82,27 @@ impl KdIndex {
 
     /// The `k` nearest indexed points, nearest first (fewer if the index holds fewer).
     pub fn knn(&self, q: &Point3<f64>, k: usize) -> Vec<Neighbour> {
-        let Some(k) = NonZero::new(k.min(self.len)) else {
-            return Vec::new();
-        };
-        self.tree
-            .query(&[q.x, q.y, q.z])
-            .nearest_n::<SquaredEuclidean<f64>>(k)
-            .execute()
-            .into_iter()
-            .map(|r| Neighbour {
-                index: r.item as usize,
-                distance: r.distance.sqrt(),
-            })
-            .collect()
+        self.knn_bounded(q, k, None)
     }
 
     /// The `k` nearest indexed points within `radius` metres (inclusive), nearest first: the
     /// first of [`KdIndex::knn`] that lie within the radius, found without visiting the cells
     /// beyond it.
     pub fn knn_within(&self, q: &Point3<f64>, k: usize, radius: f64) -> Vec<Neighbour> {
+        self.knn_bounded(q, k, Some(radius))
+    }
+
+    fn knn_bounded(&self, q: &Point3<f64>, k: usize, radius: Option<f64>) -> Vec<Neighbour> {
         let Some(k) = NonZero::new(k.min(self.len)) else {
             return Vec::new();
         };
-        self.tree
-            .query(&[q.x, q.y, q.z])
-            .nearest_n::<SquaredEuclidean<f64>>(k)
-            .within(radius * radius)
-            .execute()
+        let at = [q.x, q.y, q.z];
+        let query = self.tree.query(&at).nearest_n::<SquaredEuclidean<f64>>(k);
+        let found = match radius {
+            Some(r) => query.within(r * r).execute(),
+            None => query.execute(),
+        };
+        found
             .into_iter()
             .map(|r| Neighbour {
                 index: r.item as usize,

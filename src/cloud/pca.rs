@@ -170,7 +170,6 @@ mod tests {
 
     #[test]
     fn least_eigenvector_matches_the_full_decomposition() {
-        use rand::{RngExt, SeedableRng};
         let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(5);
         let spectra: [[f64; 3]; 9] = [
             [1.0, 0.5, 0.01],
@@ -185,7 +184,7 @@ mod tests {
         ];
         for _ in 0..200 {
             let spectrum = spectra[rng.random_range(0..spectra.len())];
-            let r = nalgebra::Rotation3::from_euler_angles(
+            let r = Rotation3::from_euler_angles(
                 rng.random_range(-3.2..3.2),
                 rng.random_range(-1.6..1.6),
                 rng.random_range(-3.2..3.2),

@@ -47,6 +47,11 @@ impl Face {
     fn height(&self, p: &Point3<f64>) -> f64 {
         self.n.dot(&p.coords) - self.d
     }
+
+    /// The slot `j` of the directed edge `a → b` (`v[j] = a`, `v[j + 1] = b`), if it has one.
+    fn edge_slot(&self, a: usize, b: usize) -> Option<usize> {
+        (0..3).find(|&j| self.v[j] == a && self.v[(j + 1) % 3] == b)
+    }
 }
 
 /// Indices (increasing) of the points of `points` that are vertices of their convex hull; of
@@ -137,7 +142,7 @@ pub fn hull_vertices(points: &[Point3<f64>]) -> Option<Vec<usize>> {
         for (idx, &(a, b, g)) in horizon.iter().enumerate() {
             let mut face = Face::new(points, [a, b, eye])?;
             face.nb = [g, first + (idx + 1) % n, first + (idx + n - 1) % n];
-            let slot = (0..3).find(|&j| faces[g].v[j] == b && faces[g].v[(j + 1) % 3] == a)?;
+            let slot = faces[g].edge_slot(b, a)?;
             faces[g].nb[slot] = first + idx;
             faces.push(face);
         }
@@ -229,8 +234,7 @@ fn initial_simplex(points: &[Point3<f64>], eps: f64) -> Option<Vec<Face>> {
     for f in 0..4 {
         for i in 0..3 {
             let (a, b) = (faces[f].v[i], faces[f].v[(i + 1) % 3]);
-            faces[f].nb[i] = (0..4)
-                .find(|&g| g != f && (0..3).any(|j| faces[g].v[j] == b && faces[g].v[(j + 1) % 3] == a))?;
+            faces[f].nb[i] = (0..4).find(|&g| g != f && faces[g].edge_slot(b, a).is_some())?;
         }
     }
     Some(faces)
