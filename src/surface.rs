@@ -14,6 +14,9 @@ use parry3d_f64::shape::{TriMesh, TriMeshFlags};
 /// A triangle mesh prepared for queries (a BVH over its triangles).
 pub struct Surface {
     mesh: TriMesh,
+    /// Per vertex, the area-weighted mean of the adjacent triangles' unit normals
+    /// ([`TriangleMesh::vertex_normals`]), for [`Surface::shaded_normal`].
+    vertex_normals: Vec<Vector3<f64>>,
 }
 
 /// Where a ray meets the surface.
@@ -78,7 +81,10 @@ impl Surface {
         let verts = mesh.vertices.iter().map(g).collect();
         let tri = TriMesh::with_flags(verts, mesh.triangles.clone(), TriMeshFlags::empty())
             .map_err(|e| Error::input("surface", format!("{e:?}")))?;
-        Ok(Surface { mesh: tri })
+        Ok(Surface {
+            mesh: tri,
+            vertex_normals: mesh.vertex_normals(),
+        })
     }
 
     /// Number of triangles.
@@ -89,6 +95,22 @@ impl Surface {
     fn normal(&self, t: u32) -> Vector3<f64> {
         let n = self.mesh.triangle(t).normal().unwrap_or(GVec::Z);
         Vector3::new(n.x, n.y, n.z)
+    }
+
+    /// The normal of the smooth surface the mesh approximates at a projection's point: the
+    /// vertex normals blended by its barycentric weights (Phong's interpolation), continuous
+    /// across the triangles' edges where the triangles' own normals jump; the triangle's own
+    /// where the blend vanishes.
+    pub fn shaded_normal(&self, p: &Projection) -> Vector3<f64> {
+        let Some(idx) = self.mesh.indices().get(p.triangle) else {
+            return p.normal;
+        };
+        let n: Vector3<f64> = idx
+            .iter()
+            .zip(p.barycentric)
+            .map(|(&v, w)| self.vertex_normals[v as usize] * w)
+            .sum();
+        n.try_normalize(1e-12).unwrap_or(p.normal)
     }
 
     /// The first hit of the ray `origin + s·dir` (`dir` need not be unit) for `0 ≤ s ≤ max_distance`

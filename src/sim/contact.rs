@@ -16,9 +16,16 @@
 //! 2 cm is a `r·δ/v_ε ≈ 35 000 N·s/m` damper at low speed, far too stiff to be held over a
 //! 1 ms step.
 //!
-//! The penetration is measured against the closest point of the true surface mesh (a parry3d
-//! BVH query through [`crate::surface::Surface`]), with the outward normal of the triangle it
-//! lies on; the wrench acts at the tool tip (no moment about it).
+//! The penetration is the tool tip's distance to the closest point of the true surface mesh (a
+//! parry3d BVH query through [`crate::surface::Surface`]), inside by the outward normal of the
+//! triangle it lies on; the wrench acts at the tool tip (no moment about it). The mesh stands
+//! for a smooth surface: the force acts along the normal of that surface, the vertex normals
+//! blended at the closest point (`normals = "shaded"`, the default; "force shading", Morgenbesser
+//! & Srinivasan 1996, after Phong's shading), continuous across the triangles' edges. Along the
+//! triangles' own normals (`normals = "facet"`) the force turns by the angle between two
+//! triangles the instant the tip crosses their edge: on the bottle's mesh (triangles of a few
+//! millimetres) a 60 N force turned by about 2° in one step, a 2 N·m step of the external
+//! moments that no physical bottle makes.
 
 use crate::config::{non_negative, positive};
 use crate::error::Result;
@@ -39,6 +46,17 @@ pub enum Material {
     Soil,
 }
 
+/// Which normal the contact force acts along.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Normals {
+    /// The smooth surface's: the vertex normals blended at the closest point.
+    #[default]
+    Shaded,
+    /// The closest triangle's own.
+    Facet,
+}
+
 /// The contact model's parameters (`[sim.contact]`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -55,6 +73,8 @@ pub struct ContactConfig {
     pub velocity_epsilon_m_s: f64,
     /// Soil resistance per metre of immersion, N/m (soil).
     pub soil_resistance_n_m: f64,
+    /// The normal the force acts along.
+    pub normals: Normals,
 }
 
 impl Default for ContactConfig {
@@ -66,6 +86,7 @@ impl Default for ContactConfig {
             friction: 0.3,
             velocity_epsilon_m_s: 0.002,
             soil_resistance_n_m: 3500.0,
+            normals: Normals::Shaded,
         }
     }
 }
@@ -145,8 +166,12 @@ impl Contact {
             None => self.surface.project(tip),
         };
         self.last_triangle = Some(proj.triangle);
-        let n = proj.normal;
-        let depth = (proj.point - tip).dot(&n);
+        let inside = (proj.point - tip).dot(&proj.normal) > 0.0;
+        let depth = if inside { proj.distance } else { -proj.distance };
+        let n = match self.cfg.normals {
+            Normals::Shaded => self.surface.shaded_normal(&proj),
+            Normals::Facet => proj.normal,
+        };
         if depth <= 0.0 {
             return ContactState {
                 wrench: Force::ZERO,
@@ -224,6 +249,73 @@ mod tests {
         let above = c.evaluate(&Point3::new(0.1, 0.2, -0.01), &Vector3::new(0.0, 0.0, 1.0));
         assert!(!above.in_contact());
         assert_eq!(above.wrench, Force::ZERO);
+    }
+
+    /// A cylinder of radius 0.1 m about the x-axis, `n` flat sides, open ends, normals out.
+    fn cylinder(n: u32) -> TriangleMesh {
+        let ring = |x: f64| {
+            (0..n).map(move |k| {
+                let phi = 2.0 * std::f64::consts::PI * f64::from(k) / f64::from(n);
+                Point3::new(x, 0.1 * phi.cos(), 0.1 * phi.sin())
+            })
+        };
+        let vertices = ring(-0.5).chain(ring(0.5)).collect();
+        let triangles = (0..n)
+            .flat_map(|k| {
+                let (a0, a1) = (k, (k + 1) % n);
+                let (b0, b1) = (a0 + n, a1 + n);
+                [[a0, a1, b1], [a0, b1, b0]]
+            })
+            .collect();
+        TriangleMesh { vertices, triangles }
+    }
+
+    /// A tip 5 mm deep in a 24-sided cylinder, carried around it: along the sides' own normals
+    /// the force turns by the sides' 15° at each edge; shaded, by a twentieth of that, and it
+    /// stays closer to the round cylinder's normal than the sides' normals do.
+    #[test]
+    fn shaded_normals_turn_the_force_smoothly_across_edges() {
+        let sides = 24;
+        let facet_angle = 2.0 * std::f64::consts::PI / f64::from(sides);
+        let sweep = |normals: Normals| {
+            let cfg = ContactConfig {
+                normals,
+                ..ContactConfig::default()
+            };
+            let mut c = Contact::new(&cylinder(sides), &cfg).unwrap();
+            let steps = 1000;
+            let (mut biggest_turn, mut worst_error) = (0.0_f64, 0.0_f64);
+            let mut last: Option<Vector3<f64>> = None;
+            for k in 0..=steps {
+                let phi = 3.0 * facet_angle * f64::from(k) / f64::from(steps) + 0.01;
+                let radial = Vector3::new(0.0, phi.cos(), phi.sin());
+                let s = c.evaluate(&Point3::from(radial * 0.095), &Vector3::zeros());
+                assert!(
+                    s.in_contact() && s.depth > 0.003 && s.depth < 0.006,
+                    "{}",
+                    s.depth
+                );
+                let dir = s.wrench.lin.normalize();
+                worst_error = worst_error.max(dir.angle(&radial));
+                if let Some(l) = last {
+                    biggest_turn = biggest_turn.max(dir.angle(&l));
+                }
+                last = Some(dir);
+            }
+            (biggest_turn, worst_error)
+        };
+        let (facet_turn, facet_error) = sweep(Normals::Facet);
+        let (shaded_turn, shaded_error) = sweep(Normals::Shaded);
+        assert!(facet_turn > 0.9 * facet_angle, "{facet_turn}");
+        // Shaded, what is left is the closest point's own jump at the edge, from the foot on
+        // one side to the foot on the other, `2 δ tan(θ/2)` of the 26 mm sides: 1.3 mm, 5 %
+        // of the way across a side, a 0.8° turn.
+        assert!(shaded_turn < facet_turn / 15.0, "{shaded_turn} vs {facet_turn}");
+        assert!(facet_error > 0.45 * facet_angle, "{facet_error}");
+        assert!(
+            shaded_error < 0.25 * facet_angle,
+            "{shaded_error} vs {facet_error}"
+        );
     }
 
     #[test]

@@ -19,7 +19,10 @@
 //! filter that lines `M_dz` up with a lagging derivative; the torque sensors' noise goes through
 //! the equation as `(1 + M_ii/I_a,i)` times itself, and a first-order `output_hz` low-pass
 //! takes it down, with a joint's output jumping to the unfiltered value when they part by more
-//! than `output_jump_nm` (a step — the friction at the tool flipping — passes at once). The base
+//! than twice `output_jump_nm`, or by more than `output_jump_nm` two readings in a row (a step —
+//! the friction at the tool flipping — passes at once or a period late; a single reading beyond
+//! the threshold is more likely the noise's: passed at once, such readings made the largest
+//! errors in contact, 2 N·m on the shoulder). The base
 //! acceleration (gyro rates' derivative, accelerometers) passes `base_filter_hz`; on a vehicle
 //! ([`Icu::on_vehicle`]) the arm's own reaction is added at once, a complementary filter: at
 //! constant external forces the vehicle accelerates by `−H_vv⁻¹ H_vq q̈` (the blocks of the whole
@@ -272,7 +275,8 @@ pub struct IcuConfig {
     /// Cut-off of a first-order low-pass on `M_ez` (`acceleration = "observer"`), Hz (0: none).
     pub output_hz: f64,
     /// A joint's low-passed `M_ez` jumps to the unfiltered value when they differ by more
-    /// than this, N·m (0: never), so that a step of the external moment passes at once.
+    /// than twice this, or by more than this in two readings in a row on the same side, N·m
+    /// (0: never), so that a step of the external moment passes at once or a period late.
     pub output_jump_nm: f64,
     /// Time constant of the zeroing of `M_ez` in free space, s (0: no zeroing).
     pub tare_s: f64,
@@ -592,10 +596,11 @@ impl Icu {
             let jump = cfg.output_jump_nm;
             for i in 0..6 {
                 let d = raw[i] - y[i];
-                // Not when the last reading was beyond the threshold on the other side: an
-                // alternation at the sampling rate is no step.
-                let alternating = last[i].abs() > jump && d * last[i] < 0.0;
-                let step = jump > 0.0 && d.abs() > jump && !alternating;
+                // Beyond twice the threshold at once; beyond it, when the last reading was
+                // beyond it on the same side too: a single reading beyond it is more likely the
+                // noise's, a step stays.
+                let confirmed = last[i].abs() > jump && d * last[i] > 0.0;
+                let step = jump > 0.0 && (d.abs() > 2.0 * jump || (d.abs() > jump && confirmed));
                 last[i] = d;
                 y[i] = if step { raw[i] } else { y[i] + k * d };
             }

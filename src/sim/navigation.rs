@@ -18,6 +18,13 @@
 //!   *is*, not where it was a quarter of a second ago: with the tool held by the surface or the
 //!   soil, a correction that lags the vehicle by the fix's delay pushes the vehicle through the
 //!   arm with the delay, an oscillation the stabilisation cannot damp.
+//!
+//!   The estimate the controllers see takes each fix's correction of the position in evenly
+//!   over `correction_s` (by default the fixes' 0.1 s period), not at once: a jump of the
+//!   position made eq. (18)'s set-points jump at every fix, and the joints' reference filter
+//!   turned each into a step of the commanded accelerations — steps of 20 N·m of the
+//!   shoulder's drive torque that the identification of the external moments could follow only
+//!   a few periods late.
 
 use super::sensors::Measurements;
 use crate::config::{non_negative, positive};
@@ -38,6 +45,9 @@ pub struct NavigationConfig {
     /// Length of the levelling at the held station before the run (accelerometers averaged at
     /// the control rate), s.
     pub levelling_s: f64,
+    /// Each fix's correction of the position passes into the estimate evenly over this long,
+    /// s (0: at once).
+    pub correction_s: f64,
 }
 
 impl Default for NavigationConfig {
@@ -46,6 +56,7 @@ impl Default for NavigationConfig {
             attitude_filter_s: 1.0,
             position_bandwidth_rad_s: 0.5,
             levelling_s: 10.0,
+            correction_s: 0.1,
         }
     }
 }
@@ -58,6 +69,7 @@ impl NavigationConfig {
     pub fn validate(&self) -> Result<()> {
         non_negative("sim.navigation.attitude_filter_s", self.attitude_filter_s)?;
         non_negative("sim.navigation.levelling_s", self.levelling_s)?;
+        non_negative("sim.navigation.correction_s", self.correction_s)?;
         positive(
             "sim.navigation.position_bandwidth_rad_s",
             self.position_bandwidth_rad_s,
@@ -72,8 +84,12 @@ pub struct Navigation {
     gravity: Vector3<f64>,
     /// The filtered attitude (none before the first measurement).
     attitude: Option<UnitQuaternion<f64>>,
-    /// Estimated position of `C`'s origin (world), m.
+    /// Estimated position of `C`'s origin (world), m, with the corrections passed on so far.
     pub position: Vector3<f64>,
+    /// The filter's estimate of the position, with every correction.
+    estimate: Vector3<f64>,
+    /// The corrections not passed on yet, and how much of them passes per second.
+    pending: (Vector3<f64>, Vector3<f64>),
     /// Estimated velocity of `C`'s origin (world), m/s.
     pub velocity: Vector3<f64>,
     bias: Vector3<f64>,
@@ -91,6 +107,8 @@ impl Navigation {
             gravity: Vector3::new(0.0, 0.0, g),
             attitude: None,
             position,
+            estimate: position,
+            pending: (Vector3::zeros(), Vector3::zeros()),
             velocity: Vector3::zeros(),
             bias: Vector3::zeros(),
             history: VecDeque::new(),
@@ -115,9 +133,9 @@ impl Navigation {
         m.attitude = attitude;
         // Dead reckoning.
         let a = attitude * (m.specific_force - self.bias) + self.gravity;
-        self.position += self.velocity * dt + a * (0.5 * dt * dt);
+        self.estimate += self.velocity * dt + a * (0.5 * dt * dt);
         self.velocity += a * dt;
-        self.history.push_back((t, self.position, self.velocity));
+        self.history.push_back((t, self.estimate, self.velocity));
         // A new fix: the residual against the estimate of its instant, the correction carried
         // forward to now and through the history still ahead of it.
         if m.position_time > self.last_fix {
@@ -136,12 +154,24 @@ impl Navigation {
                         *pi += dp + dv * (*ti - tf);
                         *vi += dv;
                     }
-                    self.position += dp + dv * (t - tf);
+                    let jump = dp + dv * (t - tf);
+                    self.estimate += jump;
                     self.velocity += dv;
+                    self.pending.0 += jump;
+                    self.pending.1 = self.pending.0 / self.cfg.correction_s.max(dt);
                 }
             }
             self.last_fix = m.position_time;
         }
+        // The pending correction shrinks along a straight line to zero.
+        let (left, rate) = &mut self.pending;
+        let step = *rate * dt;
+        *left = if step.norm_squared() >= left.norm_squared() {
+            Vector3::zeros()
+        } else {
+            *left - step
+        };
+        self.position = self.estimate - *left;
         m
     }
 }
@@ -190,5 +220,58 @@ mod tests {
         }
         assert!(worst_fix > 0.02, "{worst_fix}");
         assert!(worst_est < 0.004, "{worst_est} vs the fix's {worst_fix}");
+    }
+
+    /// A vehicle at rest, an estimate started 1 cm off and exact sensors: each fix's
+    /// correction reaches the estimate in even steps over `correction_s`, never at once — and
+    /// at once with `correction_s = 0`, the same corrections in all.
+    #[test]
+    fn a_fix_corrects_the_position_evenly_over_correction_s() {
+        let sensor_cfg = SensorConfig {
+            accelerometer_noise_m_s2: 0.0,
+            accelerometer_bias_m_s2: 0.0,
+            vision_noise_m: 0.0,
+            ..SensorConfig::default()
+        };
+        let truth = Truth {
+            q: JointVector::zeros(),
+            qd: JointVector::zeros(),
+            shaft_torque: JointVector::zeros(),
+            attitude: UnitQuaternion::identity(),
+            omega: Vector3::zeros(),
+            position: Vector3::zeros(),
+            specific_force: Vector3::new(0.0, 0.0, -9.81),
+        };
+        let dt = 1e-3;
+        let run = |correction_s: f64| {
+            let cfg = NavigationConfig {
+                correction_s,
+                ..NavigationConfig::default()
+            };
+            let mut sensors = Sensors::new(&sensor_cfg, 1, Vector3::zeros());
+            let mut nav = Navigation::new(&cfg, Vector3::new(0.01, 0.0, 0.0), 9.81);
+            nav.level(&truth.specific_force, &truth.attitude);
+            let mut last = nav.position;
+            let mut biggest_step = 0.0_f64;
+            for k in 0..3000 {
+                nav.update(sensors.read(k as f64 * dt, &truth), k as f64 * dt, dt);
+                biggest_step = biggest_step.max((nav.position - last).norm());
+                last = nav.position;
+            }
+            (biggest_step, nav.position.x)
+        };
+        let (spread, x_spread) = run(0.1);
+        let (at_once, x_at_once) = run(0.0);
+        // The first fix's correction is 0.15 × 1 cm plus its velocity's part, about 1.7 mm:
+        // at once it is one step; spread over 100 periods, a hundredth of that.
+        assert!(at_once > 1.5e-3, "{at_once}");
+        assert!(spread < at_once / 50.0, "{spread} vs {at_once}");
+        // After 3 s the estimate has come most of the way back, the same way either way
+        // (the spread corrections lag by at most one fix).
+        assert!(
+            x_spread.abs() < 0.005 && x_at_once.abs() < 0.005,
+            "{x_spread} {x_at_once}"
+        );
+        assert!((x_spread - x_at_once).abs() < 2e-3, "{x_spread} {x_at_once}");
     }
 }
