@@ -102,15 +102,36 @@ impl Surface {
     /// across the triangles' edges where the triangles' own normals jump; the triangle's own
     /// where the blend vanishes.
     pub fn shaded_normal(&self, p: &Projection) -> Vector3<f64> {
-        let Some(idx) = self.mesh.indices().get(p.triangle) else {
-            return p.normal;
+        self.blend(p.triangle, p.barycentric).unwrap_or(p.normal)
+    }
+
+    /// [`Surface::shaded_normal`] where a ray hit the surface.
+    pub fn shaded_normal_at_hit(&self, hit: &RayHit) -> Vector3<f64> {
+        let Ok(t) = u32::try_from(hit.triangle) else {
+            return hit.normal;
         };
+        let tri = self.mesh.triangle(t);
+        let (ab, ac, ap) = (tri.b - tri.a, tri.c - tri.a, g(&hit.point) - tri.a);
+        let (d00, d01, d11) = (ab.dot(ab), ab.dot(ac), ac.dot(ac));
+        let (d20, d21) = (ap.dot(ab), ap.dot(ac));
+        let den = d00 * d11 - d01 * d01;
+        if den <= 0.0 {
+            return hit.normal;
+        }
+        let v = (d11 * d20 - d01 * d21) / den;
+        let w = (d00 * d21 - d01 * d20) / den;
+        self.blend(hit.triangle, [1.0 - v - w, v, w])
+            .unwrap_or(hit.normal)
+    }
+
+    fn blend(&self, triangle: usize, weights: [f64; 3]) -> Option<Vector3<f64>> {
+        let idx = self.mesh.indices().get(triangle)?;
         let n: Vector3<f64> = idx
             .iter()
-            .zip(p.barycentric)
+            .zip(weights)
             .map(|(&v, w)| self.vertex_normals[v as usize] * w)
             .sum();
-        n.try_normalize(1e-12).unwrap_or(p.normal)
+        n.try_normalize(1e-12)
     }
 
     /// The first hit of the ray `origin + s·dir` (`dir` need not be unit) for `0 ≤ s ≤ max_distance`

@@ -18,7 +18,10 @@
 //!
 //! The penetration is the tool tip's distance to the closest point of the true surface mesh (a
 //! parry3d BVH query through [`crate::surface::Surface`]), inside by the outward normal of the
-//! triangle it lies on; the wrench acts at the tool tip (no moment about it). The mesh stands
+//! triangle it lies on; in soil, the immersion is the sediment straight above the tip (a ray
+//! cast up), with the normal of the surface there: 2 cm deep under ripples the closest point
+//! jumped from one ripple's flank to the next's, steps of 3–7 N in the soil run's force. The
+//! wrench acts at the tool tip (no moment about it). The mesh stands
 //! for a smooth surface: the force acts along the normal of that surface, the vertex normals
 //! blended at the closest point (`normals = "shaded"`, the default; "force shading", Morgenbesser
 //! & Srinivasan 1996, after Phong's shading), continuous across the triangles' edges. Along the
@@ -167,11 +170,17 @@ impl Contact {
         };
         self.last_triangle = Some(proj.triangle);
         let inside = (proj.point - tip).dot(&proj.normal) > 0.0;
-        let depth = if inside { proj.distance } else { -proj.distance };
-        let n = match self.cfg.normals {
-            Normals::Shaded => self.surface.shaded_normal(&proj),
-            Normals::Facet => proj.normal,
+        let immersion = match self.cfg.material {
+            Material::Soil if inside => self.immersion(tip),
+            _ => None,
         };
+        let (depth, n) = immersion.unwrap_or_else(|| {
+            let n = match self.cfg.normals {
+                Normals::Shaded => self.surface.shaded_normal(&proj),
+                Normals::Facet => proj.normal,
+            };
+            (if inside { proj.distance } else { -proj.distance }, n)
+        });
         if depth <= 0.0 {
             return ContactState {
                 wrench: Force::ZERO,
@@ -219,6 +228,24 @@ impl Contact {
             normal: n,
             damping,
         }
+    }
+}
+
+impl Contact {
+    /// How deep a tip inside soil is buried, and the normal of the surface above it: the
+    /// sediment over the tip, straight up (`−z`, NED); `None` when the surface above does not
+    /// face up there.
+    fn immersion(&self, tip: &Point3<f64>) -> Option<(f64, Vector3<f64>)> {
+        let up = -Vector3::z();
+        let hit = self.surface.cast_ray(tip, &up, f64::MAX)?;
+        if hit.normal.dot(&up) <= 0.0 {
+            return None;
+        }
+        let n = match self.cfg.normals {
+            Normals::Shaded => self.surface.shaded_normal_at_hit(&hit),
+            Normals::Facet => hit.normal,
+        };
+        Some((hit.distance, n))
     }
 }
 
@@ -316,6 +343,58 @@ mod tests {
             shaded_error < 0.25 * facet_angle,
             "{shaded_error} vs {facet_error}"
         );
+    }
+
+    /// A tip dragged 2 cm under rippled sediment (1 cm ripples, 5 cm long): the immersion is
+    /// the sediment over it, and the force changes smoothly. The closest surface point would
+    /// jump from one ripple's flank to the next's beneath each trough (the tip is deeper than
+    /// the troughs' curvature radius), and the resistance with it.
+    #[test]
+    fn soil_immersion_is_the_sediment_above_the_tip() {
+        let height = |x: f64| 0.01 * (2.0 * std::f64::consts::PI * x / 0.05).sin();
+        let (nx, dx) = (401_u32, 0.001);
+        let x = |i: u32| -0.2 + f64::from(i) * dx;
+        let vertices = [-0.1, 0.1]
+            .iter()
+            .flat_map(|&y| (0..nx).map(move |i| Point3::new(x(i), y, height(x(i)))))
+            .collect();
+        let triangles = (0..nx - 1)
+            .flat_map(|i| [[i, i + nx + 1, i + 1], [i, i + nx, i + nx + 1]])
+            .collect();
+        let mesh = TriangleMesh { vertices, triangles };
+        let run = |material: Material, steps: u32| {
+            let cfg = ContactConfig {
+                material,
+                stiffness_n_m: 2000.0,
+                ..ContactConfig::default()
+            };
+            let mut c = Contact::new(&mesh, &cfg).unwrap();
+            let v = Vector3::new(0.02, 0.0, 0.0);
+            let (mut worst_depth, mut biggest_change) = (0.0_f64, 0.0_f64);
+            let mut last: Option<Vector3<f64>> = None;
+            for k in 0..=steps {
+                let tip = Point3::new(-0.1 + 0.2 * f64::from(k) / f64::from(steps), 0.0, 0.02);
+                let s = c.evaluate(&tip, &v);
+                worst_depth = worst_depth.max((s.depth - (0.02 - height(tip.x))).abs());
+                if let Some(l) = last {
+                    biggest_change = biggest_change.max((s.wrench.lin - l).norm());
+                }
+                last = Some(s.wrench.lin);
+            }
+            (worst_depth, biggest_change)
+        };
+        let (depth_error, change) = run(Material::Soil, 1000);
+        // The ripple's chords sag by at most 2e-5 m under the sine.
+        assert!(depth_error < 3e-5, "{depth_error}");
+        // Continuous: the largest change between neighbouring points halves with the step.
+        let (_, finer) = run(Material::Soil, 2000);
+        assert!(finer < 0.6 * change, "{finer} vs {change} N");
+        // Measured to the closest point (as against a rigid surface) the depth misses the
+        // sediment above, and the force jumps: its largest change does not shrink.
+        let (closest_depth_error, coarse) = run(Material::Rigid, 1000);
+        let (_, fine) = run(Material::Rigid, 2000);
+        assert!(closest_depth_error > 5e-3, "{closest_depth_error}");
+        assert!(fine > 0.8 * coarse, "{fine} vs {coarse} N");
     }
 
     #[test]
