@@ -300,7 +300,7 @@ impl Multibody {
         // The explicit matrix's factor: the instant's accelerations, and each joint's effective
         // inertia on the floating system, `1 / (H⁻¹)_jj`.
         let explicit = if h != 0.0 {
-            Some(Cholesky12::new(mass).ok_or_else(not_definite)?)
+            Some(Cholesky12::new(&mass).ok_or_else(not_definite)?)
         } else {
             None
         };
@@ -342,7 +342,7 @@ impl Multibody {
                 }
             }
         }
-        let zd = solve_spd(mass, &rhs).ok_or_else(not_definite)?;
+        let zd = solve_spd(&mass, &rhs).ok_or_else(not_definite)?;
         let qdd: JointVector = zd.fixed_rows::<N_JOINTS>(6).into_owned();
         let tool_force = match &tool {
             Some((_, dj)) => u.f_env_on_tool - Force::new(dj * zd, Vector3::zeros()),
@@ -504,7 +504,7 @@ impl Multibody {
 
 /// Solves `H x = b` for a symmetric positive definite `H` by its Cholesky factor `H = L Lᵀ`
 /// (computed in place from the lower triangle); `None` if `H` is not positive definite.
-fn solve_spd(h: GenMatrix, b: &GenVector) -> Option<GenVector> {
+fn solve_spd(h: &GenMatrix, b: &GenVector) -> Option<GenVector> {
     Some(Cholesky12::new(h)?.solve(b))
 }
 
@@ -518,12 +518,15 @@ struct Cholesky12 {
 
 impl Cholesky12 {
     /// `None` if the matrix is not positive definite (or holds a NaN).
-    fn new(h: GenMatrix) -> Option<Self> {
+    fn new(h: &GenMatrix) -> Option<Self> {
         const N: usize = NDOF;
-        // Column-major storage of a symmetric matrix: `l[r]` is row `r` (and column `r`).
-        let mut l: [[f64; N]; N] = h.data.0;
-        // The reciprocals of L's diagonal: one division per row instead of one per element.
-        let mut inv = [0.0; N];
+        // Column-major storage of a symmetric matrix: `l[r]` is row `r` (and column `r`). With
+        // the reciprocals of L's diagonal: one division per row instead of one per element.
+        let mut f = Cholesky12 {
+            l: h.data.0,
+            inv: [0.0; N],
+        };
+        let Cholesky12 { l, inv } = &mut f;
         for j in 0..N {
             let (done, rest) = l.split_at_mut(j);
             let row_j = &mut rest[0];
@@ -542,7 +545,7 @@ impl Cholesky12 {
             row_j[j] = d.sqrt();
             inv[j] = 1.0 / row_j[j];
         }
-        Some(Cholesky12 { l, inv })
+        Some(f)
     }
 
     /// `x` with `H x = b`.
@@ -616,12 +619,12 @@ mod tests {
         let sys = Multibody::new(&UvmsModel::default()).unwrap();
         let h = sys.mass_matrix(&JointVector::new(0.2, 0.9, -2.0, 0.3, 0.8, -0.2));
         let b = GenVector::from_fn(|i, _| (i as f64 * 0.7).sin() * 10.0);
-        let x = solve_spd(h, &b).unwrap();
+        let x = solve_spd(&h, &b).unwrap();
         let want = h.cholesky().unwrap().solve(&b);
         assert!((x - want).norm() < 1e-12 * want.norm(), "{x} vs {want}");
         let mut bad = h;
         bad[(7, 7)] = -1.0;
-        assert!(solve_spd(bad, &b).is_none());
+        assert!(solve_spd(&bad, &b).is_none());
     }
 
     #[test]

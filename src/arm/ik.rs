@@ -131,39 +131,55 @@ impl Arm {
         let phi = py.atan2(px);
         let asn = (lateral / rho).clamp(-1.0, 1.0).asin();
         let rx = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), -dh(5).alpha).into_inner();
-        // The shoulder–elbow pairs (raw q1..q3), in the order of the analytic solutions.
-        let mut pairs = [[0.0; 3]; 4];
-        let mut n_pairs = 0;
-        for theta1 in [phi + asn, phi + PI - asn] {
+        // The shoulder solutions θ1 with the wrist centre's reach `r` in the arm's plane and the
+        // elbow's cosine, and where each one's shoulder–elbow pairs (raw q1..q3) go in the order
+        // of the analytic solutions (none for a shoulder the elbow cannot reach).
+        let shoulders = [phi + asn, phi + PI - asn].map(|theta1| {
             let (s1, c1) = theta1.sin_cos();
             let r = c1 * px + s1 * py;
             let cos_beta = (r * r + pz * pz - a2 * a2 - l3 * l3) / (2.0 * a2 * l3);
-            if cos_beta.abs() > 1.0 + 1e-9 {
-                continue;
-            }
+            (theta1, r, cos_beta)
+        });
+        let unreachable = |cos_beta: f64| cos_beta.abs() > 1.0 + 1e-9;
+        let first_pair = [0, if unreachable(shoulders[0].2) { 0 } else { 2 }];
+        let n_pairs = first_pair[1] + if unreachable(shoulders[1].2) { 0 } else { 2 };
+        // The two elbow solutions of a shoulder solution.
+        let elbows = |(theta1, r, cos_beta): (f64, f64, f64)| {
             let beta0 = cos_beta.clamp(-1.0, 1.0).acos();
             let elevation = pz.atan2(r);
             // sin is odd and cos even, exactly so in floating point too.
             let (sin0, cos0) = beta0.sin_cos();
-            for (beta, sin_beta) in [(beta0, sin0), (-beta0, -sin0)] {
+            [(beta0, sin0), (-beta0, -sin0)].map(|(beta, sin_beta)| {
                 let theta2 = elevation - (l3 * sin_beta).atan2(a2 + l3 * cos0);
                 let theta3 = beta - psi;
-                pairs[n_pairs] = [theta1 - off(0), theta2 - off(1), theta3 - off(2)];
-                n_pairs += 1;
-            }
-        }
+                [theta1 - off(0), theta2 - off(1), theta3 - off(2)]
+            })
+        };
+        let mut pairs = [[0.0; 3]; 4];
         // For the nearest alone, the pairs nearest to `q_now` in q1..q3 first, and a pair whose
         // q1..q3 alone are already farther than the best checked solution is skipped (the
-        // margin covers the summation's round-off; ties keep the analytic order).
+        // margin covers the summation's round-off; ties keep the analytic order); a shoulder
+        // solution whose q1 alone is farther is not solved for its elbows at all. What is
+        // skipped cannot be the nearest, so the result is the search's without skipping.
         let mut order: [usize; 4] = std::array::from_fn(|i| i);
         let mut partial = [f64::INFINITY; 4];
+        let mut q1_distance = [f64::INFINITY; 2];
+        let mut shoulder_order = [0, 1];
         if nearest_only {
-            for (d, pair) in partial.iter_mut().zip(&pairs[..n_pairs]) {
-                if let Some(q) = self.fit_joints(pair, 0, q_now) {
-                    *d = (0..3).map(|i| (q[i] - q_now[i]).powi(2)).sum();
+            for (k, d) in q1_distance.iter_mut().enumerate() {
+                if !unreachable(shoulders[k].2)
+                    && let Some([q1]) = self.fit_joints(&[shoulders[k].0 - off(0)], 0, q_now)
+                {
+                    *d = (q1 - q_now[0]).powi(2);
                 }
             }
-            order[..n_pairs].sort_by(|&a, &b| partial[a].total_cmp(&partial[b]));
+            shoulder_order.sort_by(|&a, &b| q1_distance[a].total_cmp(&q1_distance[b]));
+        } else {
+            for k in 0..2 {
+                if !unreachable(shoulders[k].2) {
+                    pairs[first_pair[k]..first_pair[k] + 2].copy_from_slice(&elbows(shoulders[k]));
+                }
+            }
         }
         let dist = |q: &JointVector| (q - q_now).norm_squared();
         let mut best: Option<(f64, usize, JointVector)> = None;
@@ -171,61 +187,83 @@ impl Arm {
         // angles, for the forward-kinematics check.
         let mut frame3 = [(Matrix3::<f64>::identity(), Vector3::<f64>::zeros()); 4];
         let mut wrist_of = [(0usize, [0.0; 3]); 8];
-        for &pair in &order[..n_pairs] {
-            if nearest_only
-                && (partial[pair].is_infinite()
-                    || best.is_some_and(|(d, _, _)| partial[pair] > d * (1.0 + 1e-9)))
-            {
-                continue;
-            }
-            let q123 = pairs[pair];
-            let (mut r03, mut p03) = (Matrix3::identity(), Vector3::zeros());
-            self.advance(&mut r03, &mut p03, 0, &q123);
-            frame3[pair] = (r03, p03);
-            // R_3_6 Rx(−α6) = Rz(θ4) Ry(−θ5) Rz(θ6).
-            let m: Matrix3<f64> = r03.transpose() * r06 * rx;
-            let sb = m[(0, 2)].hypot(m[(1, 2)]);
-            let wrists: [(f64, f64, f64); 2] = if sb < 1e-10 {
-                let theta4 = q_now[3] + off(3);
-                let (b, sum_or_diff) = if m[(2, 2)] > 0.0 {
-                    (0.0, m[(1, 0)].atan2(m[(0, 0)]))
-                } else {
-                    (PI, (-m[(1, 0)]).atan2(m[(1, 1)]))
-                };
-                let theta6 = if b == 0.0 {
-                    sum_or_diff - theta4
-                } else {
-                    theta4 - sum_or_diff
-                };
-                [(theta4, b, theta6); 2]
-            } else {
-                [1.0, -1.0].map(|sg: f64| {
-                    let b = (sg * sb).atan2(m[(2, 2)]);
-                    let theta4 = (sg * m[(1, 2)]).atan2(sg * m[(0, 2)]);
-                    let theta6 = (sg * m[(2, 1)]).atan2(-sg * m[(2, 0)]);
-                    (theta4, b, theta6)
-                })
-            };
-            let distinct = if sb < 1e-10 { 1 } else { 2 };
-            for (w, &(theta4, b, theta6)) in wrists[..distinct].iter().enumerate() {
-                out.analytic += 1;
-                let wrist = [theta4 - off(3), -b - off(4), theta6 - off(5)];
-                let raw = [q123[0], q123[1], q123[2], wrist[0], wrist[1], wrist[2]];
-                let Some(q) = self.fit_limits(&raw, q_now) else {
+        let farther = |best: &Option<(f64, usize, JointVector)>, partial: f64| {
+            partial.is_infinite() || best.is_some_and(|(d, _, _)| partial > d * (1.0 + 1e-9))
+        };
+        // The pairs in groups: each shoulder solution's (nearest in q1 first) for the nearest
+        // alone, all of them at once otherwise.
+        let groups: &[(usize, usize, usize)] = if nearest_only {
+            &shoulder_order.map(|k| (k, first_pair[k], 2))
+        } else {
+            &[(0, 0, n_pairs)]
+        };
+        for &(k, group, n_group) in groups {
+            let visit = &mut order[group..group + n_group];
+            if nearest_only {
+                if farther(&best, q1_distance[k]) {
                     continue;
-                };
-                if nearest_only {
-                    // Analytic order: two wrists per pair.
-                    let (d, rank) = (dist(&q), 2 * pair + w);
-                    if best.is_none_or(|(bd, br, _)| d < bd || (d == bd && rank < br))
-                        && self.wrist_matches(&r03, &p03, &wrist, t_base_tool)
-                    {
-                        best = Some((d, rank, q));
+                }
+                pairs[group..group + 2].copy_from_slice(&elbows(shoulders[k]));
+                for i in group..group + 2 {
+                    if let Some(q) = self.fit_joints(&pairs[i], 0, q_now) {
+                        partial[i] = (0..3).map(|j| (q[j] - q_now[j]).powi(2)).sum();
                     }
+                }
+                visit.sort_by(|&a, &b| partial[a].total_cmp(&partial[b]));
+            }
+            for &pair in &*visit {
+                if nearest_only && farther(&best, partial[pair]) {
+                    continue;
+                }
+                let q123 = pairs[pair];
+                let (mut r03, mut p03) = (Matrix3::identity(), Vector3::zeros());
+                self.advance(&mut r03, &mut p03, 0, &q123);
+                frame3[pair] = (r03, p03);
+                // R_3_6 Rx(−α6) = Rz(θ4) Ry(−θ5) Rz(θ6).
+                let m: Matrix3<f64> = r03.transpose() * r06 * rx;
+                let sb = m[(0, 2)].hypot(m[(1, 2)]);
+                let wrists: [(f64, f64, f64); 2] = if sb < 1e-10 {
+                    let theta4 = q_now[3] + off(3);
+                    let (b, sum_or_diff) = if m[(2, 2)] > 0.0 {
+                        (0.0, m[(1, 0)].atan2(m[(0, 0)]))
+                    } else {
+                        (PI, (-m[(1, 0)]).atan2(m[(1, 1)]))
+                    };
+                    let theta6 = if b == 0.0 {
+                        sum_or_diff - theta4
+                    } else {
+                        theta4 - sum_or_diff
+                    };
+                    [(theta4, b, theta6); 2]
                 } else {
-                    out.solutions[out.len] = q;
-                    wrist_of[out.len] = (pair, wrist);
-                    out.len += 1;
+                    [1.0, -1.0].map(|sg: f64| {
+                        let b = (sg * sb).atan2(m[(2, 2)]);
+                        let theta4 = (sg * m[(1, 2)]).atan2(sg * m[(0, 2)]);
+                        let theta6 = (sg * m[(2, 1)]).atan2(-sg * m[(2, 0)]);
+                        (theta4, b, theta6)
+                    })
+                };
+                let distinct = if sb < 1e-10 { 1 } else { 2 };
+                for (w, &(theta4, b, theta6)) in wrists[..distinct].iter().enumerate() {
+                    out.analytic += 1;
+                    let wrist = [theta4 - off(3), -b - off(4), theta6 - off(5)];
+                    let raw = [q123[0], q123[1], q123[2], wrist[0], wrist[1], wrist[2]];
+                    let Some(q) = self.fit_limits(&raw, q_now) else {
+                        continue;
+                    };
+                    if nearest_only {
+                        // Analytic order: two wrists per pair.
+                        let (d, rank) = (dist(&q), 2 * pair + w);
+                        if best.is_none_or(|(bd, br, _)| d < bd || (d == bd && rank < br))
+                            && self.wrist_matches(&r03, &p03, &wrist, t_base_tool)
+                        {
+                            best = Some((d, rank, q));
+                        }
+                    } else {
+                        out.solutions[out.len] = q;
+                        wrist_of[out.len] = (pair, wrist);
+                        out.len += 1;
+                    }
                 }
             }
         }
