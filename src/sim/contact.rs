@@ -18,17 +18,16 @@
 //!
 //! The penetration is the tool tip's distance to the closest point of the true surface mesh (a
 //! parry3d BVH query through [`crate::surface::Surface`]), inside by the outward normal of the
-//! triangle it lies on; in soil, the immersion is the sediment straight above the tip (a ray
-//! cast up), with the normal of the surface there: 2 cm deep under ripples the closest point
-//! jumped from one ripple's flank to the next's, steps of 3–7 N in the soil run's force. The
-//! wrench acts at the tool tip (no moment about it). The mesh stands
-//! for a smooth surface: the force acts along the normal of that surface, the vertex normals
-//! blended at the closest point (`normals = "shaded"`, the default; "force shading", Morgenbesser
-//! & Srinivasan 1996, after Phong's shading), continuous across the triangles' edges. Along the
-//! triangles' own normals (`normals = "facet"`) the force turns by the angle between two
-//! triangles the instant the tip crosses their edge: on the bottle's mesh (triangles of a few
-//! millimetres) a 60 N force turned by about 2° in one step, a 2 N·m step of the external
-//! moments that no physical bottle makes.
+//! triangle it lies on. The mesh stands for a smooth surface: the force acts along the normal
+//! of that surface, the vertex normals blended at the closest point (`normals = "shaded"`, the
+//! default; "force shading", Morgenbesser & Srinivasan 1996, after Phong), continuous across
+//! the triangles' edges. Along the triangles' own normals (`normals = "facet"`) the force turns
+//! by the angle between two triangles the instant the tip crosses their edge: on the bottle's
+//! mesh (triangles of a few millimetres) a 60 N force turned by about 2° in one step, a 2 N·m
+//! step of the external moments that no physical bottle makes. In soil the immersion is the
+//! sediment straight above the tip (a ray cast up), with the normal of the surface there: 2 cm
+//! deep under ripples the closest point jumped from one ripple's flank to the next's, steps of
+//! 3–7 N in the soil run's force. The wrench acts at the tool tip (no moment about it).
 
 use crate::config::{non_negative, positive};
 use crate::error::Result;
@@ -229,9 +228,7 @@ impl Contact {
             damping,
         }
     }
-}
 
-impl Contact {
     /// How deep a tip inside soil is buried, and the normal of the surface above it: the
     /// sediment over the tip, straight up (`−z`, NED); `None` when the surface above does not
     /// face up there.
