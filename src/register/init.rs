@@ -75,7 +75,7 @@ impl Default for InitConfig {
             rotation_steps: 8,
             coarse_points: 150,
             offset_points: 50,
-            coarse_model_points: 2000,
+            coarse_model_points: 4000,
             coarse_iterations: 12,
             refine: 4,
             refine_within: 3.0,
