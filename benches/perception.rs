@@ -147,7 +147,7 @@ fn bench_input(c: &mut Criterion, cfg: &PerceptionConfig, input: &Input) {
     g.bench_function("register", |b| {
         b.iter(|| {
             let index = KdIndex::new(black_box(&object)).unwrap();
-            let normals = estimate_normals(&object, &index, &cfg.normals, &camera);
+            let normals = estimate_normals(&object, &cfg.normals, &camera).unwrap();
             register(
                 &input.model,
                 &object,

@@ -375,8 +375,8 @@ pub fn check(
     let mut object = object_points;
     let index = KdIndex::new(&object.points)?;
     let normals = timings.time("normals", || {
-        estimate_normals(&object.points, &index, &cfg.normals, &camera)
-    });
+        estimate_normals(&object.points, &cfg.normals, &camera)
+    })?;
     object.normals = Some(normals);
     let object_shape = principal_axes(&object.points, 0.01)
         .ok_or_else(|| Error::failed("register", "the object has no points"))?;

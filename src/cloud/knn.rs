@@ -166,7 +166,7 @@ impl Grid {
             }
             best.settle();
             let reach = r as f64 * self.h + margin;
-            if best.full() && best.worst() <= reach * reach || r >= whole {
+            if best.settled(reach) || r >= whole {
                 return true;
             }
         }
@@ -250,14 +250,17 @@ struct Best {
     items: Vec<Candidate>,
     /// The k-th best squared distance once k candidates have been settled, else infinity.
     worst: f64,
+    /// Candidates farther than this (squared) are not wanted.
+    cap: f64,
 }
 
 impl Best {
-    fn new(k: usize) -> Self {
+    fn new(k: usize, cap: f64) -> Self {
         Best {
             k,
             items: Vec::with_capacity(8 * k + 8),
             worst: f64::INFINITY,
+            cap,
         }
     }
 
@@ -269,7 +272,7 @@ impl Best {
     /// Offers a candidate (dropped at once if farther than the current k-th best).
     #[inline]
     fn offer(&mut self, d2: f64, i: u32) {
-        if d2 <= self.worst {
+        if d2 <= self.worst && d2 <= self.cap {
             self.items.push((d2.to_bits(), i));
             if self.items.len() >= 8 * self.k + 8 {
                 self.settle();
@@ -294,6 +297,13 @@ impl Best {
         self.worst
     }
 
+    /// Whether the candidates are final once every point within `reach` of the query has been
+    /// offered: the k best lie within it, or nothing beyond it is wanted.
+    fn settled(&self, reach: f64) -> bool {
+        let r2 = reach * reach;
+        self.full() && self.worst <= r2 || self.cap <= r2
+    }
+
     /// Writes the k best, in no particular order, into `out`.
     fn finish(&mut self, out: &mut Vec<Neighbour>) {
         self.settle();
@@ -316,6 +326,24 @@ pub fn map_knn<T: Send>(
     k: usize,
     f: impl Fn(usize, &[Neighbour]) -> T + Sync,
 ) -> Result<Vec<T>> {
+    map_knn_within(points, k, f64::INFINITY, f)
+}
+
+/// [`map_knn`] with the neighbours capped to `radius` metres (inclusive): the first of the `k`
+/// nearest that lie within it. The cell edge is at most the radius, so that the 3×3×3 block of a
+/// point holds everything within the radius and no point needs the ring search.
+///
+/// # Errors
+/// As [`map_knn`], and [`Error::Input`] if `radius` is not positive.
+pub fn map_knn_within<T: Send>(
+    points: &[Point3<f64>],
+    k: usize,
+    radius: f64,
+    f: impl Fn(usize, &[Neighbour]) -> T + Sync,
+) -> Result<Vec<T>> {
+    if radius.is_nan() || radius <= 0.0 {
+        return Err(Error::input("k nearest neighbours", "the radius must be > 0"));
+    }
     if k == 0 {
         return Err(Error::input("k nearest neighbours", "k must be at least 1"));
     }
@@ -341,13 +369,14 @@ pub fn map_knn<T: Send>(
     if k == 0 {
         return Ok((0..points.len()).map(|i| f(i, &[])).collect());
     }
-    let h = cell_edge(points, k, (hi - lo).norm())?;
+    let cap = radius * radius;
+    let h = cell_edge(points, k, (hi - lo).norm())?.min(radius);
     let Some(grid) = Grid::new(points, &lo, &hi, h) else {
         let tree = KdIndex::new(points).map_err(|e| Error::failed("kNN", e))?;
         return Ok(points
             .par_iter()
             .enumerate()
-            .map(|(i, p)| f(i, &tree_knn(&tree, p, i, k)))
+            .map(|(i, p)| f(i, &tree_knn(&tree, p, i, k, radius)))
             .collect());
     };
     // Cell by cell: every point of a cell scans the same 3×3×3 block, which answers it exactly
@@ -357,7 +386,7 @@ pub fn map_knn<T: Send>(
     let answered: Vec<(u32, Option<T>)> = cells
         .par_iter()
         .map_init(
-            || (Best::new(k), Vec::with_capacity(k)),
+            || (Best::new(k, cap), Vec::with_capacity(k)),
             |(best, out), &(c, start, end)| {
                 let block = grid.block(c);
                 let mut res = Vec::with_capacity(end - start);
@@ -369,7 +398,7 @@ pub fn map_knn<T: Send>(
                     let q = &grid.sorted[sp];
                     let i = grid.order[sp];
                     let mut exact = false;
-                    for bound in [hint, f64::INFINITY] {
+                    for bound in [hint.min(cap), cap] {
                         best.clear();
                         for &(a, b) in &block {
                             for t in a..b {
@@ -381,15 +410,17 @@ pub fn map_knn<T: Send>(
                                 }
                             }
                         }
-                        if best.items.len() >= k || bound == f64::INFINITY {
+                        if best.items.len() >= k || bound == cap {
                             break;
                         }
                     }
                     best.settle();
                     let reach = grid.h + grid.margin(q, c);
-                    if best.full() && best.worst() <= reach * reach {
+                    if best.settled(reach) {
                         exact = true;
-                        hint = 1.44 * best.worst();
+                        if best.full() {
+                            hint = 1.44 * best.worst();
+                        }
                     }
                     // Not settled within the block: continue with rings 2, 3, ...
                     exact = exact || grid.query(q, i, best, 2);
@@ -417,7 +448,7 @@ pub fn map_knn<T: Send>(
     // The points the rings gave up on (isolated ones): a linear scan each while they are few,
     // else a kd-tree over the whole cloud.
     if far.len() <= BRUTE_FORCE_QUERIES {
-        let mut best = Best::new(k);
+        let mut best = Best::new(k, cap);
         let mut out = Vec::with_capacity(k);
         for i in far {
             best.clear();
@@ -433,7 +464,7 @@ pub fn map_knn<T: Send>(
         let tree = KdIndex::new(points).map_err(|e| Error::failed("kNN", e))?;
         let done: Vec<(usize, T)> = far
             .into_par_iter()
-            .map(|i| (i, f(i, &tree_knn(&tree, &points[i], i, k))))
+            .map(|i| (i, f(i, &tree_knn(&tree, &points[i], i, k, radius))))
             .collect();
         for (i, t) in done {
             slots[i] = Some(t);
@@ -475,10 +506,15 @@ fn cell_edge(points: &[Point3<f64>], k: usize, diag: f64) -> Result<f64> {
         .max(f64::MIN_POSITIVE))
 }
 
-/// The `k` nearest other points of point `i` (at `q`) from a kd-tree over all points.
-fn tree_knn(tree: &KdIndex, q: &Point3<f64>, i: usize, k: usize) -> Vec<Neighbour> {
+/// The `k` nearest other points of point `i` (at `q`) within `radius` from a kd-tree over all
+/// points.
+fn tree_knn(tree: &KdIndex, q: &Point3<f64>, i: usize, k: usize, radius: f64) -> Vec<Neighbour> {
     // k + 1 so that the point itself (or one exact duplicate) can be dropped.
-    let mut v = tree.knn(q, k + 1);
+    let mut v = if radius.is_finite() {
+        tree.knn_within(q, k + 1, radius)
+    } else {
+        tree.knn(q, k + 1)
+    };
     match v.iter().position(|n| n.index == i) {
         Some(at) => {
             v.remove(at);
@@ -538,20 +574,26 @@ mod tests {
         }
         pts.push(pts[10]);
         pts.push(pts[10]);
-        for k in [1, 8, 20] {
-            let got = map_knn(&pts, k, |_, nb| {
+        // Unbounded, and capped to radii below and above the typical k-th distance (the cap
+        // makes the cell edge at most the radius: no ring search).
+        for (k, radius) in [1, 8, 20]
+            .into_iter()
+            .flat_map(|k| [(k, f64::INFINITY), (k, 0.01), (k, 0.3)])
+        {
+            let got = map_knn_within(&pts, k, radius, |_, nb| {
                 let mut v: Vec<(f64, usize)> = nb.iter().map(|n| (n.distance, n.index)).collect();
                 v.sort_by(|a, b| a.0.total_cmp(&b.0));
                 v
             })
             .unwrap();
             for (i, g) in got.iter().enumerate() {
-                let b = brute(&pts, i, k);
-                assert_eq!(g.len(), k);
+                let mut b = brute(&pts, i, k);
+                b.retain(|x| x.0 <= radius);
+                assert_eq!(g.len(), b.len(), "point {i}, k {k}, radius {radius}");
                 let mut idx: Vec<usize> = g.iter().map(|x| x.1).collect();
                 idx.sort();
                 idx.dedup();
-                assert_eq!(idx.len(), k, "point {i}: a neighbour twice: {g:?}");
+                assert_eq!(idx.len(), b.len(), "point {i}: a neighbour twice: {g:?}");
                 assert!(!idx.contains(&i), "point {i} is its own neighbour");
                 for (x, y) in g.iter().zip(&b) {
                     // Same distances; indices may differ only between equidistant points.
@@ -572,6 +614,7 @@ mod tests {
         let r = map_knn(&line, 1, |_, nb| nb[0].distance).unwrap();
         assert_eq!(r, vec![1.0; 5]);
         assert!(map_knn(&line, 0, |_, _| ()).is_err());
+        assert!(map_knn_within(&line, 1, 0.0, |_, _| ()).is_err());
         assert!(map_knn(&[Point3::new(f64::NAN, 0.0, 0.0)], 1, |_, _| ()).is_err());
         // All points identical: every distance 0.
         let same = vec![Point3::new(0.5, 0.5, 0.5); 50];

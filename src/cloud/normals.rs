@@ -6,10 +6,10 @@
 //! single-view sensor sees its surface. Runs in parallel (rayon); the result does not depend on the
 //! number of threads. Units: metres.
 
+use crate::cloud::knn::map_knn_within;
 use crate::cloud::pca::{least_eigenvector, mean_covariance_of};
-use crate::spatial::KdIndex;
+use crate::error::Result;
 use nalgebra::{Point3, Vector3};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// How normals are estimated.
@@ -31,39 +31,43 @@ impl Default for NormalConfig {
     }
 }
 
-/// The unit normal of each point of `points` (indexed by `index`, built on the same points),
-/// oriented so that it points towards `viewpoint`. A point with fewer than three usable
-/// neighbours gets the unit direction towards the viewpoint.
+/// The unit normal of each point of `points`, oriented so that it points towards `viewpoint`. A
+/// point with fewer than three usable neighbours (itself included) gets the unit direction
+/// towards the viewpoint. The neighbourhoods come from the grid all-kNN ([`map_knn_within`]),
+/// several times cheaper than a kd-tree query per point.
+///
+/// # Errors
+/// [`crate::error::Error::Input`] if a point is not finite.
 pub fn estimate_normals(
     points: &[Point3<f64>],
-    index: &KdIndex,
     config: &NormalConfig,
     viewpoint: &Point3<f64>,
-) -> Vec<Vector3<f64>> {
+) -> Result<Vec<Vector3<f64>>> {
     let k = config.neighbours.max(3);
-    points
-        .par_iter()
-        .map(|p| {
-            let towards = (viewpoint - p).try_normalize(1e-300).unwrap_or(Vector3::z());
-            let nb = if config.radius_m > 0.0 {
-                index.knn_within(p, k, config.radius_m)
-            } else {
-                index.knn(p, k)
-            };
-            if nb.len() < 3 {
-                return towards;
-            }
-            let Some((_, cov)) = mean_covariance_of(points, nb.iter().map(|n| n.index)) else {
-                return towards;
-            };
-            let n = least_eigenvector(&cov);
-            match n.try_normalize(1e-300) {
-                Some(n) if n.dot(&towards) < 0.0 => -n,
-                Some(n) => n,
-                None => towards,
-            }
-        })
-        .collect()
+    let radius = if config.radius_m > 0.0 {
+        config.radius_m
+    } else {
+        f64::INFINITY
+    };
+    // The point itself is one of its `k` neighbours.
+    map_knn_within(points, k - 1, radius, |i, nb| {
+        let towards = (viewpoint - points[i])
+            .try_normalize(1e-300)
+            .unwrap_or(Vector3::z());
+        if nb.len() < 2 {
+            return towards;
+        }
+        let near = std::iter::once(i).chain(nb.iter().map(|n| n.index));
+        let Some((_, cov)) = mean_covariance_of(points, near) else {
+            return towards;
+        };
+        let n = least_eigenvector(&cov);
+        match n.try_normalize(1e-300) {
+            Some(n) if n.dot(&towards) < 0.0 => -n,
+            Some(n) => n,
+            None => towards,
+        }
+    })
 }
 
 #[cfg(test)]
@@ -86,8 +90,7 @@ mod tests {
                 c + v.normalize() * 0.2
             })
             .collect();
-        let idx = KdIndex::new(&pts).unwrap();
-        let n = estimate_normals(&pts, &idx, &NormalConfig::default(), &Point3::origin());
+        let n = estimate_normals(&pts, &NormalConfig::default(), &Point3::origin()).unwrap();
         for (p, n) in pts.iter().zip(&n) {
             let radial = (p - c).normalize();
             assert!(n.dot(&radial).abs() > 0.98, "normal not radial");
@@ -99,8 +102,7 @@ mod tests {
     #[test]
     fn isolated_points_get_the_view_direction() {
         let pts = vec![Point3::new(0.0, 0.0, 2.0), Point3::new(1.0, 0.0, 2.0)];
-        let idx = KdIndex::new(&pts).unwrap();
-        let n = estimate_normals(&pts, &idx, &NormalConfig::default(), &Point3::origin());
+        let n = estimate_normals(&pts, &NormalConfig::default(), &Point3::origin()).unwrap();
         assert!((n[0] - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-12);
     }
 }

@@ -493,7 +493,7 @@ mod tests {
     fn recovers_a_known_motion() {
         let target = patch(20_000, 1);
         let idx = KdIndex::new(&target).unwrap();
-        let normals = estimate_normals(&target, &idx, &NormalConfig::default(), &Point3::origin());
+        let normals = estimate_normals(&target, &NormalConfig::default(), &Point3::origin()).unwrap();
         // Source: an independent sampling of the same surface, moved by the inverse of `truth`.
         let truth = Isometry3::new(Vector3::new(0.01, -0.008, 0.005), Vector3::new(0.05, -0.03, 0.04));
         let source: Vec<Point3<f64>> = patch(8000, 2).iter().map(|p| truth.inverse() * p).collect();

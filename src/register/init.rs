@@ -8,7 +8,8 @@
 //!    rotation_steps` rotations, which include the sign flips of the aligned PCA frames — except
 //!    the axes along which the model is shorter than the scan (`span_tolerance`);
 //! 2. each candidate's translation puts the centroids together and is then corrected by a few
-//!    trimmed mean-offset steps (the scan sees the near side only, so its centroid is biased);
+//!    trimmed mean-offset steps on a few scan points (the scan sees the near side only, so its
+//!    centroid is biased);
 //! 3. each gets a short, coarse point-to-plane ICP from a few hundred scan points to the model
 //!    (scan → model, since every scanned point must lie on the model while most model points are
 //!    unseen) and is scored by the truncated RMS distance of the scan's points to the model,
@@ -41,6 +42,10 @@ pub struct InitConfig {
     pub rotation_steps: usize,
     /// Scan points (evenly strided) for the coarse ICP every candidate gets.
     pub coarse_points: usize,
+    /// Scan points (evenly strided) for the trimmed mean-offset steps that correct each
+    /// candidate's translation before its coarse ICP (far from the model, these queries cost the
+    /// most, and a mean needs fewer points than a fit).
+    pub offset_points: usize,
     /// Model points (evenly strided) for the coarse ICP.
     pub coarse_model_points: usize,
     /// Iterations of the coarse ICP.
@@ -69,6 +74,7 @@ impl Default for InitConfig {
         InitConfig {
             rotation_steps: 8,
             coarse_points: 150,
+            offset_points: 50,
             coarse_model_points: 4000,
             coarse_iterations: 12,
             refine: 4,
@@ -83,7 +89,7 @@ impl Default for InitConfig {
 }
 
 /// Iterations the coarse ICPs run between two checks for runs that have met.
-const COARSE_BLOCK: usize = 4;
+const COARSE_BLOCK: usize = 2;
 
 /// One candidate's coarse ICP (scan → decimated model) as it goes.
 struct CoarseRun {
@@ -233,6 +239,7 @@ pub fn initial_guess(
     };
     let coarse = strided(cfg.coarse_points.max(10));
     let sample = strided(cfg.sample_points);
+    let few = strided(cfg.offset_points.max(10));
     let size = model.shape.spans.max().max(1e-6);
     let tau = cfg.score_fraction * size;
     let gate = cfg.gate_fraction * size;
@@ -307,7 +314,7 @@ pub fn initial_guess(
             );
             for _ in 0..3 {
                 // Moving the model by −off (model frame) moves it onto the scan's points.
-                let (_, off) = score(small, small_spacing, &coarse, &pose, gate);
+                let (_, off) = score(small, small_spacing, &few, &pose, gate);
                 pose *= Translation3::from(-off);
             }
             CoarseRun {

@@ -67,10 +67,9 @@ impl ReferenceModel {
         let normals = match cloud.normals {
             Some(n) if n.len() == cloud.points.len() => n,
             _ => {
-                let index = KdIndex::new(&cloud.points)?;
                 let centre =
                     crate::cloud::pca::mean_covariance(&cloud.points).map_or(Point3::origin(), |m| m.0);
-                estimate_normals(&cloud.points, &index, normal_cfg, &centre)
+                estimate_normals(&cloud.points, normal_cfg, &centre).map_err(|e| Error::input(what, e))?
             }
         };
         Self::build(cloud.points, normals, None, what)
@@ -397,7 +396,7 @@ pub(crate) mod tests {
             let truth = Isometry3::new(Vector3::new(0.05, -0.03, 1.0), axis.normalize() * angle);
             let scan = scan_of(&truth, 0.0005, 10 + k as u64);
             let idx = KdIndex::new(&scan).unwrap();
-            let normals = estimate_normals(&scan, &idx, &NormalConfig::default(), &Point3::origin());
+            let normals = estimate_normals(&scan, &NormalConfig::default(), &Point3::origin()).unwrap();
             let r = register(
                 &model,
                 &scan,
