@@ -131,7 +131,7 @@ fn bottle_cleaning_end_to_end() {
     let median = errors[errors.len() / 2];
     assert!(median <= 0.3, "identification error median {median} N·m");
     // The same at every control period in contact (the summary): its 95th percentile and its
-    // largest value (0.39-0.40 and 1.05-1.07 N·m on seeds 1-3; 0.52-0.55 and 2.6-3.1 with the
+    // largest value (0.39-0.40 and 0.99-1.32 N·m on seeds 1-3; 0.52-0.55 and 2.6-3.1 with the
     // contact force along the mesh triangles' own normals, the vision fixes' corrections
     // passed on at once and single noisy readings passed through the ICU's output filter as
     // steps; 4.6 with the plain implicit friction step, which damps a joint held by friction
