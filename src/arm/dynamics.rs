@@ -6,6 +6,13 @@
 //!   the velocity relative to the current, gravity, buoyancy); backward pass
 //!   `F_{i−1} += X_iᵀ F_i`, `τ_i = S_iᵀ F_i`. The base may move (`V_0, A_0` of the vehicle), and
 //!   the wrench the arm exerts on its base comes out (`−X_1ᵀ F_1`).
+//! - [`Arm::velocity_terms`] and [`Arm::inverse_dynamics_split`]: the same RNEA in two parts, the
+//!   wrenches being affine in the accelerations. The first pass takes the links' velocities,
+//!   their velocity-product accelerations `C_i = X_i C_{i−1} + V_i × S_i q̇_i` (`C_0 = 0`) and each
+//!   link's wrench for them (with drag, gravity, buoyancy); each call of the second adds
+//!   `I_i A'_i`, `A'_i = X_i A'_{i−1} + S_i q̈_i` (`A'_0 = A_0`; `I_i` rigid + added), and runs the
+//!   backward pass. The ICU and the joint controllers take their inverse dynamics at the same
+//!   measured state with different accelerations: they share the first pass.
 //! - [`Arm::mass_matrix`]: the composite-rigid-body algorithm (CRBA) with each link's
 //!   `M_RB + M_A`; the rotor inertias `G² Jm` are added on the diagonal.
 //! - [`Arm::forward_dynamics`]: `H q̈ = τ − c(q, q̇)` solved by Cholesky.
@@ -82,6 +89,20 @@ pub struct LinkTransforms {
     pub x: [Xform; N_JOINTS],
 }
 
+/// The acceleration-free part of the inverse dynamics at one state ([`Arm::velocity_terms`]).
+#[derive(Debug, Clone, Copy)]
+pub struct VelocityTerms {
+    /// The joint angles, rad.
+    pub q: JointVector,
+    /// The joint rates, rad/s.
+    pub qd: JointVector,
+    xs: LinkTransforms,
+    /// Each link's wrench at zero joint and base accelerations (link frames).
+    forces: [Force; N_JOINTS],
+    /// The drives' friction at `qd` (exact sign rule), N·m.
+    friction: JointVector,
+}
+
 /// Velocities and accelerations of the links from a forward pass (link frames).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct LinkMotion {
@@ -117,23 +138,81 @@ impl Arm {
         self.inverse_dynamics_at(&xs, qd, qdd, base, &f6)
     }
 
-    /// [`Arm::inverse_dynamics`] of free motion, and the wrench on the base that the same motion
-    /// gives with the environment's wrench `f_env_on_tool` on the tool (base-frame axes, moment
-    /// about the tool point): what `inverse_dynamics` with it returns as `wrench_on_base`, from
-    /// the same RNEA. The tool wrench enters the base wrench linearly, carried to the base
-    /// through the link transforms (equal up to round-off).
+    /// The part of the inverse dynamics that does not depend on the accelerations, at `(q, q̇)`
+    /// with the base moving at `base.velocity` in gravity `base.gravity` and the current
+    /// `base.current` (`base.acceleration` is not used): the link transforms, the links'
+    /// velocities, and each link's wrench for its velocity-product acceleration with its
+    /// velocity-dependent terms, gravity and buoyancy. [`Arm::inverse_dynamics_split`] adds the
+    /// accelerations' part; several of them at one state share this.
+    pub fn velocity_terms(&self, q: &JointVector, qd: &JointVector, base: &BaseMotion) -> VelocityTerms {
+        let xs = self.transforms(q);
+        let mut forces = [Force::ZERO; N_JOINTS];
+        let (mut v, mut c) = (base.velocity, Motion::ZERO);
+        let (mut g, mut cur) = (base.gravity, base.current);
+        for i in 0..N_JOINTS {
+            let link = &self.links[i];
+            let x = &xs.x[i];
+            let vj = link.axis * qd[i];
+            v = x.motion(&v) + vj;
+            c = x.motion(&c) + v.cross(&vj);
+            g = x.rot * g;
+            cur = x.rot * cur;
+            forces[i] = link.body.wrench(&v, &c, &g, &cur);
+        }
+        VelocityTerms {
+            q: *q,
+            qd: *qd,
+            xs,
+            forces,
+            friction: self.friction(qd, None),
+        }
+    }
+
+    /// [`Arm::inverse_dynamics`] at the state of `vt` for the joint accelerations `qdd` and the
+    /// base's acceleration `base_acceleration`: the accelerations' part added to `vt`'s (equal up
+    /// to round-off; the wrench is affine in the accelerations).
+    pub fn inverse_dynamics_split(
+        &self,
+        vt: &VelocityTerms,
+        qdd: &JointVector,
+        base_acceleration: &Motion,
+        f_env_on_tool: Option<&Force>,
+    ) -> InverseDynamics {
+        let f6 = match f_env_on_tool {
+            None => Force::ZERO,
+            Some(f) => self.flange_wrench(&vt.xs, f),
+        };
+        let mut forces = vt.forces;
+        let mut a = *base_acceleration;
+        for i in 0..N_JOINTS {
+            let link = &self.links[i];
+            a = vt.xs.x[i].motion(&a) + link.axis * qdd[i];
+            forces[i] += link.body.total.mul(&a);
+        }
+        let mut tau_rigid = JointVector::zeros();
+        let f1 = self.backward(&vt.xs, forces, f6, &mut tau_rigid);
+        InverseDynamics {
+            tau: tau_rigid + self.armature().component_mul(qdd) + vt.friction,
+            tau_rigid,
+            wrench_on_base: -vt.xs.x[0].force_inv(&f1),
+        }
+    }
+
+    /// [`Arm::inverse_dynamics_split`] of free motion, and the wrench on the base that the same
+    /// motion gives with the environment's wrench `f_env_on_tool` on the tool (base-frame axes,
+    /// moment about the tool point): what `inverse_dynamics_split` with it returns as
+    /// `wrench_on_base`, from the same RNEA. The tool wrench enters the base wrench linearly,
+    /// carried to the base through the link transforms (equal up to round-off).
     pub fn inverse_dynamics_loaded(
         &self,
-        q: &JointVector,
-        qd: &JointVector,
+        vt: &VelocityTerms,
         qdd: &JointVector,
-        base: &BaseMotion,
+        base_acceleration: &Motion,
         f_env_on_tool: &Force,
     ) -> (InverseDynamics, Force) {
-        let xs = self.transforms(q);
-        let free = self.inverse_dynamics_at(&xs, qd, qdd, base, &Force::ZERO);
-        let f6 = self.flange_wrench(&xs, f_env_on_tool);
-        let tool_on_base = xs.x.iter().rev().fold(f6, |f, x| x.force_inv(&f));
+        let free = self.inverse_dynamics_split(vt, qdd, base_acceleration, None);
+        let f6 = self.flange_wrench(&vt.xs, f_env_on_tool);
+        let tool_on_base = vt.xs.x.iter().rev().fold(f6, |f, x| x.force_inv(&f));
         (free, free.wrench_on_base + tool_on_base)
     }
 
@@ -203,7 +282,21 @@ impl Arm {
                 m.a[i] = a;
             }
         }
-        forces[N_JOINTS - 1] -= *f6;
+        self.backward(xs, forces, *f6, tau)
+    }
+
+    /// The RNEA's backward pass: the links' wrenches `forces` (link frames) with the
+    /// environment's wrench `f6` on link 6 taken off, carried down the chain; the joint torques
+    /// into `tau`, returns `F_1`.
+    #[inline]
+    fn backward(
+        &self,
+        xs: &LinkTransforms,
+        mut forces: [Force; N_JOINTS],
+        f6: Force,
+        tau: &mut JointVector,
+    ) -> Force {
+        forces[N_JOINTS - 1] -= f6;
         for i in (0..N_JOINTS).rev() {
             tau[i] = self.links[i].axis.dot(&forces[i]);
             if i > 0 {
@@ -327,13 +420,63 @@ mod tests {
             &Vector3::new(0.2, 0.0, 0.1),
         );
         let f = Force::new(Vector3::new(30.0, -45.0, 60.0), Vector3::new(1.0, 2.0, -3.0));
-        let (free, loaded) = arm.inverse_dynamics_loaded(&q, &qd, &qdd, &base, &f);
-        assert_eq!(free, arm.inverse_dynamics(&q, &qd, &qdd, &base, None));
+        let vt = arm.velocity_terms(&q, &qd, &base);
+        let (free, loaded) = arm.inverse_dynamics_loaded(&vt, &qdd, &base.acceleration, &f);
+        assert_eq!(
+            free,
+            arm.inverse_dynamics_split(&vt, &qdd, &base.acceleration, None)
+        );
         let want = arm
             .inverse_dynamics(&q, &qd, &qdd, &base, Some(&f))
             .wrench_on_base;
         let err = (loaded.to_vector6() - want.to_vector6()).norm();
         assert!(err < 1e-12 * want.to_vector6().norm(), "{loaded:?} vs {want:?}");
+    }
+
+    #[test]
+    fn the_split_inverse_dynamics_is_the_rnea() {
+        // Random states, accelerations, base motions, currents and tool wrenches: the velocity
+        // terms plus the accelerations' part equal the one-pass RNEA up to round-off.
+        let arm = arm();
+        let mut rng = crate::synth::random::stream(7, 0, 0);
+        let mut u = |s: f64| crate::synth::random::uniform(&mut rng, [-s, s]);
+        for _ in 0..200 {
+            let q = JointVector::from_fn(|_, _| u(3.0));
+            let qd = JointVector::from_fn(|_, _| u(2.0));
+            let qdd = JointVector::from_fn(|_, _| u(5.0));
+            let mut v6 = |s: f64| Vector6::from_fn(|_, _| u(s));
+            let (nu, nu_dot) = (v6(0.5), v6(2.0));
+            let rpy = (u(0.5), u(0.5), u(3.0));
+            let current = Vector3::new(u(0.3), u(0.3), u(0.1));
+            let base = BaseMotion::on_vehicle(
+                &arm,
+                &UnitQuaternion::from_euler_angles(rpy.0, rpy.1, rpy.2),
+                &nu,
+                &nu_dot,
+                9.81,
+                &current,
+            );
+            let f = Force::new(
+                Vector3::new(u(80.0), u(80.0), u(80.0)),
+                Vector3::new(u(5.0), u(5.0), u(5.0)),
+            );
+            let vt = arm.velocity_terms(&q, &qd, &base);
+            for tool in [None, Some(&f)] {
+                let want = arm.inverse_dynamics(&q, &qd, &qdd, &base, tool);
+                let got = arm.inverse_dynamics_split(&vt, &qdd, &base.acceleration, tool);
+                let close = |a: &[f64], b: &[f64]| {
+                    let scale = b.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
+                    a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-12 * scale)
+                };
+                assert!(
+                    close(got.tau.as_slice(), want.tau.as_slice()),
+                    "{got:?} vs {want:?}"
+                );
+                assert!(close(got.tau_rigid.as_slice(), want.tau_rigid.as_slice()));
+                let (g, w) = (got.wrench_on_base.to_vector6(), want.wrench_on_base.to_vector6());
+                assert!(close(g.as_slice(), w.as_slice()), "{g} vs {w}");
+            }
+        }
     }
 
     #[test]

@@ -63,7 +63,7 @@
 //! `(J_v J_vᵀ) F = J_v M_ez`, a 3 × 3 solve. Neither inverts the Jacobian.
 
 use super::sensors::{Measurements, SensorConfig};
-use crate::arm::dynamics::BaseMotion;
+use crate::arm::dynamics::{BaseMotion, VelocityTerms};
 use crate::arm::{Arm, JointVector};
 use crate::config::{non_negative, positive};
 use crate::error::Result;
@@ -474,13 +474,17 @@ impl Icu {
     }
 
     /// Eq. (1)–(12) for the measurements `m` of a control period `dt`, with `arm` the
-    /// controller's model, `drive` the joint accelerations and drive torques commanded when the
-    /// measurements were taken, `base` the base motion it believes and `approach` whether the trajectory is
-    /// in its approach (the offset is learnt then, until the touch).
+    /// controller's model, `vt` its velocity terms at the measured `q`, `q̇` and the base motion
+    /// `base` ([`Arm::velocity_terms`]), `drive` the joint accelerations and drive torques
+    /// commanded when the measurements were taken, `base` the base motion it believes and
+    /// `approach` whether the trajectory is in its approach (the offset is learnt then, until
+    /// the touch).
+    #[allow(clippy::too_many_arguments)]
     pub fn identify(
         &mut self,
         arm: &Arm,
         m: &Measurements,
+        vt: &VelocityTerms,
         drive: &Drive,
         base: &BaseMotion,
         approach: bool,
@@ -588,7 +592,10 @@ impl Icu {
             }
             base.acceleration = arm.mount.motion(&Motion::from_vector6(&nu_dot));
         }
-        let m_wz = arm.inverse_dynamics(&m.q, &m.qd, &qdd, &base, None).tau_rigid;
+        debug_assert!(vt.q == m.q && vt.qd == m.qd, "velocity terms of another state");
+        let m_wz = arm
+            .inverse_dynamics_split(vt, &qdd, &base.acceleration, None)
+            .tau_rigid;
         let mut raw = m_dz - m_wz;
         if cfg.acceleration == Acceleration::Observer && cfg.output_hz > 0.0 {
             let k = lag_gain_hz(dt, cfg.output_hz);
@@ -780,13 +787,17 @@ mod tests {
             let mut icu = Icu::new(&cfg, &SensorConfig::default());
             let mut id = None;
             for _ in 0..8000 {
-                id = Some(icu.identify(&arm, &meas(m_wz + b), &drive, &base, true, dt));
+                let m = meas(m_wz + b);
+                let vt = arm.velocity_terms(&m.q, &m.qd, &base);
+                id = Some(icu.identify(&arm, &m, &vt, &drive, &base, true, dt));
             }
             let free = id.unwrap().m_ez;
             assert!((free - b * free_space_left).amax() < 1e-3 * b.amax(), "{free}");
             // The touch and the contact phase: the offset no longer moves.
             for _ in 0..3000 {
-                id = Some(icu.identify(&arm, &meas(m_wz + b + contact), &drive, &base, false, dt));
+                let m = meas(m_wz + b + contact);
+                let vt = arm.velocity_terms(&m.q, &m.qd, &base);
+                id = Some(icu.identify(&arm, &m, &vt, &drive, &base, false, dt));
             }
             let loaded = id.unwrap();
             let expect = contact + b * free_space_left;
@@ -912,7 +923,8 @@ mod tests {
                 commanded: qdd,
                 torque: Some(tau),
             };
-            let id = icu.identify(&arm, &meas, &drive, &base, false, dt);
+            let vt = arm.velocity_terms(&meas.q, &meas.qd, &base);
+            let id = icu.identify(&arm, &meas, &vt, &drive, &base, false, dt);
             errors.push((id.m_ez - m_ez).amax());
             // Ten steps a period: the steep friction makes one Euler step of 1 ms too coarse.
             let h = dt / 10.0;

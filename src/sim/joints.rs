@@ -10,12 +10,12 @@
 //! all with the controller's model; the plant clips `τ` to the drives' torque limits.
 
 use super::icu::Drive;
-use crate::arm::dynamics::BaseMotion;
+use crate::arm::dynamics::VelocityTerms;
 use crate::arm::{Arm, JointVector};
 use crate::config::{non_negative, positive};
 use crate::error::Result;
 use crate::integrate::lag_gain_hz;
-use crate::spatial_algebra::Force;
+use crate::spatial_algebra::{Force, Motion};
 use serde::{Deserialize, Serialize};
 
 /// Joint-controller parameters (`[sim.joints]`).
@@ -124,27 +124,26 @@ impl JointControl {
         self.q_ref += self.qd_ref * dt;
     }
 
-    /// The drive torques for measured `q`, `q̇`, the identified external moments `m_ez`, the
-    /// base motion the controller believes, with `arm` the controller's model; and, from the
+    /// The drive torques for the measured `q`, `q̇` of `vt` (the velocity terms of the
+    /// controller's model `arm` at them and the base motion the controller believes, its
+    /// acceleration taken as zero), the identified external moments `m_ez`; and, from the
     /// same inverse dynamics, the wrench the commanded motion exerts on the arm's base (base
     /// frame, about its origin) with the environment's wrench `f_env_on_tool` on the tool
     /// (base-frame axes, about the tool point), for the vehicle's open loop (eq. 17).
-    #[allow(clippy::too_many_arguments)]
     pub fn torque(
         &mut self,
         arm: &Arm,
-        q: &JointVector,
-        qd: &JointVector,
+        vt: &VelocityTerms,
         m_ez: &JointVector,
-        base: &BaseMotion,
         f_env_on_tool: &Force,
         dt: f64,
     ) -> (JointVector, Force) {
+        let (q, qd) = (&vt.q, &vt.qd);
         let c = &self.cfg;
         let w = c.bandwidth_rad_s;
         let a = self.qdd_ref + (self.q_ref - q) * (w * w) + (self.qd_ref - qd) * (2.0 * c.damping_ratio * w);
         self.commanded = a;
-        let (id, on_base) = arm.inverse_dynamics_loaded(q, qd, &a, base, f_env_on_tool);
+        let (id, on_base) = arm.inverse_dynamics_loaded(vt, &a, &Motion::ZERO, f_env_on_tool);
         let mut tau = id.tau_rigid
             + arm.armature().component_mul(&a)
             + arm.friction(&self.qd_ref, Some(arm.coulomb_smoothing));

@@ -460,7 +460,10 @@ pub fn simulate(
         // ICU (the commanded accelerations are its fallback, `[sim.icu] acceleration`), zeroed
         // in the approach until the touch.
         let approach = s.phase == Phase::Approach;
-        let id = icu.identify(arm, &meas, &joints.drive(), &base, approach, dt);
+        // The ICU's and the joint controllers' inverse dynamics at the measured state share
+        // their velocity terms.
+        let vt = arm.velocity_terms(&meas.q, &meas.qd, &base);
+        let id = icu.identify(arm, &meas, &vt, &joints.drive(), &base, approach, dt);
         let r_w0 = meas.attitude * arm.t_body_base.rotation;
         let f_imp_est = r_w0 * id.f_imp_base;
         // FCU.
@@ -508,7 +511,7 @@ pub fn simulate(
         // The drive torques, and the arm's wrench on the vehicle for the commanded motion under
         // the identified tool force (the open loop of eq. 17) from the same inverse dynamics.
         let f_e = Force::new(-id.f_imp_base, Vector3::zeros());
-        let (tau, arm_on_base) = joints.torque(arm, &meas.q, &meas.qd, &id.m_ez, &base, &f_e, dt);
+        let (tau, arm_on_base) = joints.torque(arm, &vt, &id.m_ez, &f_e, dt);
         // AUV SS with the open loop of eq. (17).
         let open = if cfg.scenario.open_loop {
             -arm.base_wrench_in_body(&arm_on_base)
