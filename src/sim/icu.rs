@@ -199,35 +199,50 @@ impl DriveFilter {
             }
             // Over the period: `ȧ = −λ a`, `λ = F′/H_ii` (with `1/H_ii ≈ (H⁻¹)_ii`).
             let lambda = l.friction(x[0], Some(eps)).1 * h_inv_diag[i];
-            let decay = (-lambda * dt).exp();
+            let decay_m1 = (-lambda * dt).exp_m1();
+            let decay = 1.0 + decay_m1;
             let reach = if lambda * dt > 1e-9 {
-                -(-lambda * dt).exp_m1() / lambda
+                -decay_m1 / lambda
             } else {
                 dt
             };
-            let phi = Matrix3::new(1.0, reach, 0.0, 0.0, decay, 0.0, 0.0, 0.0, 1.0);
-            // The first measurement opens the filter: nothing to predict.
+            // The first measurement opens the filter: nothing to predict. The transition is
+            // `Φ = [1 reach 0; 0 decay 0; 0 0 1]`, its products written out.
             let (x_prior, p_prior) = if first {
                 (*x, *p)
             } else {
+                let phi_p = Matrix3::from_rows(&[
+                    p.row(0) + p.row(1) * reach,
+                    p.row(1) * decay,
+                    p.row(2).into_owned(),
+                ]);
+                let pp = Matrix3::from_columns(&[
+                    phi_p.column(0) + phi_p.column(1) * reach,
+                    phi_p.column(1) * decay,
+                    phi_p.column(2).into_owned(),
+                ]);
                 (
-                    phi * *x + Vector3::new(0.0, jump[i], 0.0),
-                    phi * *p * phi.transpose() + q,
+                    Vector3::new(x[0] + reach * x[1], decay * x[1] + jump[i], x[2]),
+                    pp + q,
                 )
             };
             let z = Vector2::new(qd[i], tau[i] - m_dz[i]);
-            // Iterated update: the friction linearised at the latest estimate of `v`.
+            // Iterated update: the friction linearised at the latest estimate of `v`. With
+            // `H = [1 0 0; F′ I_a 1]` only `F′` changes: `P Hᵀ = [P e₀, F′ P e₀ + P (I_a e₁ + e₂)]`.
+            let p0 = p_prior.column(0).into_owned();
+            let p12 = p_prior.column(1) * ia + p_prior.column(2);
             let mut xi = x_prior;
             let mut gain = Matrix3x2::zeros();
             let mut h = Matrix2x3::zeros();
             for _ in 0..3 {
                 let (f, df) = l.friction(xi[0], Some(eps));
                 h = Matrix2x3::new(1.0, 0.0, 0.0, df, ia, 1.0);
+                let pht = Matrix3x2::from_columns(&[p0, p0 * df + p12]);
                 let hx = Vector2::new(xi[0], ia * xi[1] + f + xi[2]);
-                let Some(s_inv) = (h * p_prior * h.transpose() + r).try_inverse() else {
+                let Some(s_inv) = (h * pht + r).try_inverse() else {
                     break;
                 };
-                gain = p_prior * h.transpose() * s_inv;
+                gain = pht * s_inv;
                 xi = x_prior + gain * (z - hx - h * (x_prior - xi));
             }
             let ikh = Matrix3::identity() - gain * h;
