@@ -103,6 +103,13 @@ pub struct VelocityTerms {
     friction: JointVector,
 }
 
+impl VelocityTerms {
+    /// The link transforms at `q`.
+    pub fn transforms(&self) -> &LinkTransforms {
+        &self.xs
+    }
+}
+
 /// Velocities and accelerations of the links from a forward pass (link frames).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct LinkMotion {

@@ -6,8 +6,10 @@
 //! `[z_{i−1} × (p − o_{i−1}); z_{i−1}]` (the Robotics Toolbox's `jacob0`, Pinocchio's
 //! `LOCAL_WORLD_ALIGNED`). Units m, rad.
 
+use super::dynamics::LinkTransforms;
 use super::{Arm, JointVector};
 use crate::model::N_JOINTS;
+use crate::spatial_algebra::Xform;
 use nalgebra::{Isometry3, Matrix3, Matrix6, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 /// Rotation and origin of every link frame in the base frame.
@@ -22,11 +24,16 @@ pub struct Chain {
 impl Arm {
     /// The frames of all links at `q`.
     pub fn chain(&self, q: &JointVector) -> Chain {
+        Self::chain_of(&self.transforms(q))
+    }
+
+    /// The frames of all links from the link transforms `xs` (of [`Arm::transforms`]).
+    pub fn chain_of(xs: &LinkTransforms) -> Chain {
         let mut rot = [Matrix3::identity(); N_JOINTS];
         let mut pos = [Vector3::zeros(); N_JOINTS];
         let (mut r, mut p) = (Matrix3::identity(), Vector3::zeros());
-        for i in 0..N_JOINTS {
-            self.advance(&mut r, &mut p, i, &[q[i]]);
+        for (i, x) in xs.x.iter().enumerate() {
+            step(&mut r, &mut p, x);
             rot[i] = r;
             pos[i] = p;
         }
@@ -39,9 +46,7 @@ impl Arm {
     #[inline]
     pub(crate) fn advance(&self, r: &mut Matrix3<f64>, p: &mut Vector3<f64>, first: usize, q: &[f64]) {
         for (link, &qi) in self.links[first..].iter().zip(q) {
-            let x = link.xform(qi);
-            *p += *r * x.pos;
-            *r *= x.rot.transpose();
+            step(r, p, &link.xform(qi));
         }
     }
 
@@ -57,7 +62,12 @@ impl Arm {
 
     /// Geometric Jacobian of the tool point (origin of `G`), base frame, rows `[v; ω]`.
     pub fn jacobian(&self, q: &JointVector) -> Matrix6<f64> {
-        self.jacobian_at(q, &self.t_flange_tool.translation.vector)
+        self.tool_jacobian(&self.chain(q))
+    }
+
+    /// [`Arm::jacobian`] at the link frames `chain`.
+    pub fn tool_jacobian(&self, chain: &Chain) -> Matrix6<f64> {
+        chain.jacobian_at(&self.t_flange_tool.translation.vector)
     }
 
     /// Geometric Jacobian of the point `p6` (m, in frame 6 coordinates) fixed to link 6.
@@ -90,6 +100,14 @@ impl Chain {
         }
         j
     }
+}
+
+/// Moves a frame (`r`, `p`: its rotation and origin in the base frame) through the link
+/// transform `x` into the next link's frame.
+#[inline]
+fn step(r: &mut Matrix3<f64>, p: &mut Vector3<f64>, x: &Xform) {
+    *p += *r * x.pos;
+    *r *= x.rot.transpose();
 }
 
 /// The isometry of a rotation matrix (orthonormal by construction) and a translation.

@@ -634,7 +634,8 @@ impl Icu {
             self.quiet_offset = raw;
         }
         let mut m_ez = raw - self.offset;
-        let mut f_imp_base = tool_force(arm, &m.q, &m_ez, &cfg);
+        let jacobian = arm.tool_jacobian(&Arm::chain_of(vt.transforms()));
+        let mut f_imp_base = tool_force(&jacobian, &m.q, &m_ez, &cfg);
         // After the touch the offset stays as it is.
         if !self.touched {
             let touch_force = self.touch_force.get_or_insert(f_imp_base);
@@ -651,7 +652,7 @@ impl Icu {
                     }
                 }
                 m_ez = raw - self.offset;
-                f_imp_base = tool_force(arm, &m.q, &m_ez, &cfg);
+                f_imp_base = tool_force(&jacobian, &m.q, &m_ez, &cfg);
             }
         }
         Identification { m_ez, f_imp_base }
@@ -668,10 +669,15 @@ pub fn seed_joints(q: &JointVector, singular: f64) -> [usize; 3] {
     }
 }
 
-/// The force the tool exerts (arm-base axes) that explains the external moments `m_ez` at `q`
-/// (see the module docs).
-pub fn tool_force(arm: &Arm, q: &JointVector, m_ez: &JointVector, cfg: &IcuConfig) -> Vector3<f64> {
-    let jv = arm.jacobian(q).fixed_rows::<3>(0).into_owned();
+/// The force the tool exerts (arm-base axes) that explains the external moments `m_ez` at `q`,
+/// where the tool point's Jacobian is `jacobian` ([`Arm::jacobian`]; see the module docs).
+pub fn tool_force(
+    jacobian: &Matrix6<f64>,
+    q: &JointVector,
+    m_ez: &JointVector,
+    cfg: &IcuConfig,
+) -> Vector3<f64> {
+    let jv = jacobian.fixed_rows::<3>(0).into_owned();
     let least_squares = || {
         let a = jv * jv.transpose();
         a.cholesky()
@@ -721,7 +727,7 @@ mod tests {
                     method,
                     ..IcuConfig::default()
                 };
-                let est = tool_force(&arm, &q, &m_ez, &cfg);
+                let est = tool_force(&arm.jacobian(&q), &q, &m_ez, &cfg);
                 assert!((est - f).norm() < 1e-8, "{method:?} at {q}: {est}");
             }
         }
@@ -759,7 +765,7 @@ mod tests {
         // What a perfect torque sensor reads: the rigid torques with the contact.
         let m_dz = arm.inverse_dynamics(&q, &qd, &qdd, &base, Some(&env)).tau_rigid;
         let m_wz = arm.inverse_dynamics(&q, &qd, &qdd, &base, None).tau_rigid;
-        let f_imp = tool_force(&arm, &q, &(m_dz - m_wz), &IcuConfig::default());
+        let f_imp = tool_force(&arm.jacobian(&q), &q, &(m_dz - m_wz), &IcuConfig::default());
         assert!((f_imp + f_env_base).norm() < 1e-8, "{f_imp}");
     }
 
@@ -775,7 +781,7 @@ mod tests {
         let m_wz = arm.inverse_dynamics(&q, &zero, &zero, &base, None).tau_rigid;
         // A shoulder-heavy error whose apparent tool force (3 N) stays below the touch threshold.
         let b = JointVector::new(0.2, -0.8, 0.3, 0.0, 0.05, 0.0);
-        let b = b * (3.0 / tool_force(&arm, &q, &b, &IcuConfig::default()).norm());
+        let b = b * (3.0 / tool_force(&arm.jacobian(&q), &q, &b, &IcuConfig::default()).norm());
         let f = Vector3::new(0.0, 0.0, 60.0);
         let contact = arm.jacobian(&q).fixed_rows::<3>(0).transpose() * f;
         let meas = |m_dz: JointVector| Measurements {
