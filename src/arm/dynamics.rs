@@ -154,18 +154,11 @@ impl Arm {
     pub fn velocity_terms(&self, q: &JointVector, qd: &JointVector, base: &BaseMotion) -> VelocityTerms {
         let xs = self.transforms(q);
         let mut forces = [Force::ZERO; N_JOINTS];
-        let (mut v, mut c) = (base.velocity, Motion::ZERO);
-        let (mut g, mut cur) = (base.gravity, base.current);
-        for i in 0..N_JOINTS {
-            let link = &self.links[i];
-            let x = &xs.x[i];
-            let vj = link.axis * qd[i];
-            v = x.motion(&v) + vj;
-            c = x.motion(&c) + v.cross(&vj);
-            g = x.rot * g;
-            cur = x.rot * cur;
-            forces[i] = link.body.wrench(&v, &c, &g, &cur);
-        }
+        let unaccelerated = BaseMotion {
+            acceleration: Motion::ZERO,
+            ..*base
+        };
+        self.forward(&xs, qd, &JointVector::zeros(), &unaccelerated, &mut forces, None);
         VelocityTerms {
             q: *q,
             qd: *qd,
@@ -270,9 +263,25 @@ impl Arm {
         base: &BaseMotion,
         f6: &Force,
         tau: &mut JointVector,
-        mut motion: Option<&mut LinkMotion>,
+        motion: Option<&mut LinkMotion>,
     ) -> Force {
         let mut forces = [Force::ZERO; N_JOINTS];
+        self.forward(xs, qd, qdd, base, &mut forces, motion);
+        self.backward(xs, forces, *f6, tau)
+    }
+
+    /// The RNEA's forward pass: each link's wrench (link frame) into `forces`. With `motion` the
+    /// link motions are kept.
+    #[inline]
+    fn forward(
+        &self,
+        xs: &LinkTransforms,
+        qd: &JointVector,
+        qdd: &JointVector,
+        base: &BaseMotion,
+        forces: &mut [Force; N_JOINTS],
+        mut motion: Option<&mut LinkMotion>,
+    ) {
         let (mut v, mut a) = (base.velocity, base.acceleration);
         let (mut g, mut c) = (base.gravity, base.current);
         for i in 0..N_JOINTS {
@@ -289,7 +298,6 @@ impl Arm {
                 m.a[i] = a;
             }
         }
-        self.backward(xs, forces, *f6, tau)
     }
 
     /// The RNEA's backward pass: the links' wrenches `forces` (link frames) with the
