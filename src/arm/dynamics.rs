@@ -21,6 +21,7 @@
 //! velocity-product term is `V_i × S_i q̇_i`. Drive model on the link side (Robotics Toolbox):
 //! `τ = τ_rigid + G² Jm q̈ + |G|(|G| B q̇ + Tc_sel)`. Units: SI, frames: link frames, base 0.
 
+use super::kinematics::Chain;
 use super::{Arm, JointVector};
 use crate::model::N_JOINTS;
 use crate::spatial_algebra::{Force, Inertia, Motion, Xform};
@@ -97,6 +98,8 @@ pub struct VelocityTerms {
     /// The joint rates, rad/s.
     pub qd: JointVector,
     xs: LinkTransforms,
+    /// The link frames in the base frame.
+    chain: Chain,
     /// Each link's wrench at zero joint and base accelerations (link frames).
     forces: [Force; N_JOINTS],
     /// The drives' friction at `qd` (exact sign rule), N·m.
@@ -104,9 +107,9 @@ pub struct VelocityTerms {
 }
 
 impl VelocityTerms {
-    /// The link transforms at `q`.
-    pub fn transforms(&self) -> &LinkTransforms {
-        &self.xs
+    /// The link frames at `q` in the base frame.
+    pub fn chain(&self) -> &Chain {
+        &self.chain
     }
 }
 
@@ -162,6 +165,7 @@ impl Arm {
         VelocityTerms {
             q: *q,
             qd: *qd,
+            chain: Self::chain_of(&xs),
             xs,
             forces,
             friction: self.friction(qd, None),
@@ -201,8 +205,9 @@ impl Arm {
     /// [`Arm::inverse_dynamics_split`] of free motion, and the wrench on the base that the same
     /// motion gives with the environment's wrench `f_env_on_tool` on the tool (base-frame axes,
     /// moment about the tool point): what `inverse_dynamics_split` with it returns as
-    /// `wrench_on_base`, from the same RNEA. The tool wrench enters the base wrench linearly,
-    /// carried to the base through the link transforms (equal up to round-off).
+    /// `wrench_on_base`. The tool wrench enters the base wrench linearly, carried through the
+    /// static arm to the base origin: its moment there is `n + p × f`, `p` the tool point in the
+    /// base frame (equal up to round-off).
     pub fn inverse_dynamics_loaded(
         &self,
         vt: &VelocityTerms,
@@ -211,9 +216,12 @@ impl Arm {
         f_env_on_tool: &Force,
     ) -> (InverseDynamics, Force) {
         let free = self.inverse_dynamics_split(vt, qdd, base_acceleration, None);
-        let f6 = self.flange_wrench(&vt.xs, f_env_on_tool);
-        let tool_on_base = vt.xs.x.iter().rev().fold(f6, |f, x| x.force_inv(&f));
-        (free, free.wrench_on_base + tool_on_base)
+        let p = self.tool_point(&vt.chain);
+        let f = f_env_on_tool;
+        (
+            free,
+            free.wrench_on_base + Force::new(f.lin, f.ang + p.cross(&f.lin)),
+        )
     }
 
     /// The inverse dynamics at the link transforms `xs` with the environment's wrench `f6` on

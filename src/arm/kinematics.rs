@@ -70,6 +70,11 @@ impl Arm {
         chain.jacobian_at(&self.t_flange_tool.translation.vector)
     }
 
+    /// The tool point (origin of `G`) in the base frame at the link frames `chain`, m.
+    pub fn tool_point(&self, chain: &Chain) -> Vector3<f64> {
+        chain.point(&self.t_flange_tool.translation.vector)
+    }
+
     /// Geometric Jacobian of the point `p6` (m, in frame 6 coordinates) fixed to link 6.
     pub fn jacobian_at(&self, q: &JointVector, p6: &Vector3<f64>) -> Matrix6<f64> {
         self.chain(q).jacobian_at(p6)
@@ -82,11 +87,16 @@ impl Chain {
         isometry(&self.rot[N_JOINTS - 1], &self.pos[N_JOINTS - 1])
     }
 
+    /// The point `p6` (m, in frame 6 coordinates) fixed to link 6 in the base frame.
+    pub fn point(&self, p6: &Vector3<f64>) -> Vector3<f64> {
+        self.pos[N_JOINTS - 1] + self.rot[N_JOINTS - 1] * p6
+    }
+
     /// Geometric Jacobian of the point `p6` (m, in frame 6 coordinates) fixed to link 6, as
     /// [`Arm::jacobian_at`].
     pub fn jacobian_at(&self, p6: &Vector3<f64>) -> Matrix6<f64> {
         let c = self;
-        let p = c.pos[N_JOINTS - 1] + c.rot[N_JOINTS - 1] * p6;
+        let p = c.point(p6);
         let mut j = Matrix6::zeros();
         for i in 0..N_JOINTS {
             let (z, o) = if i == 0 {

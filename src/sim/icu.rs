@@ -634,7 +634,7 @@ impl Icu {
             self.quiet_offset = raw;
         }
         let mut m_ez = raw - self.offset;
-        let jacobian = arm.tool_jacobian(&Arm::chain_of(vt.transforms()));
+        let jacobian = arm.tool_jacobian(vt.chain());
         let mut f_imp_base = tool_force(&jacobian, &m.q, &m_ez, &cfg);
         // After the touch the offset stays as it is.
         if !self.touched {
