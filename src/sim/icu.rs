@@ -27,10 +27,11 @@
 //! ([`Icu::on_vehicle`]) the arm's own reaction is added at once, a complementary filter: at
 //! constant external forces the vehicle accelerates by `−H_vv⁻¹ H_vq q̈` (the blocks of the whole
 //! system's inertia), and the high-pass of that (the part the filtered sensors do not show yet)
-//! joins their low-pass. The arm's drive torques step at every vision fix (the set-points
-//! jump), the shoulder's reaction turns the vehicle at once, and the gyros' filtered derivative
-//! took some 30 ms to follow it: the inertial moments of that turning were the larger part of
-//! the identification error in contact.
+//! joins their low-pass. When the arm's drive torques step (at every vision fix, while the
+//! navigation passed each fix's correction on at once and the set-points jumped), the
+//! shoulder's reaction turns the vehicle at once, and the gyros' filtered derivative took some
+//! 30 ms to follow it: the inertial moments of that turning were the larger part of the
+//! identification error in contact.
 //!
 //! `acceleration = "measured"` takes the tachometer rates' derivative through a low-pass of
 //! `filter_stages` first-order stages ([`LowPass`]), and `M_dz` (and the vehicle's rates and

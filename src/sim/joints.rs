@@ -1,7 +1,7 @@
 //! MM and its CS: the manipulator's joint controllers (Figure 4).
 //!
-//! The IK set-points (a step every control period, and a jump whenever a new vision fix moves
-//! the correction of eq. 18) pass a critically damped second-order reference filter
+//! The IK set-points (a step every control period; the navigation passes each vision fix's
+//! correction of eq. 18 on over the fixes' period, so they do not jump) pass a critically damped second-order reference filter
 //! (natural frequency `reference_filter_rad_s`) that gives smooth `q_ref`, `q̇_ref`, `q̈_ref`.
 //! The drive torque is computed-torque control with the IDP as feed-forward and the
 //! compensation of the identified external moments (the seed's adaptive corrective devices):
