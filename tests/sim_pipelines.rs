@@ -273,6 +273,21 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("sim.dwell"));
+    // Found before the first stage runs: nothing written.
+    assert!(
+        !dir.path().join("o2").exists(),
+        "a bad value of the simulation left files"
+    );
+    let p3 = variant(dir.path(), "");
+    let text = std::fs::read_to_string(&p3)
+        .unwrap()
+        .replace("scene_mesh.ply", "no_such_mesh.ply");
+    std::fs::write(&p3, text).unwrap();
+    let o3 = dir.path().join("o3");
+    let o = run(&["run", p3.to_str().unwrap(), "--out", o3.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no_such_mesh.ply"));
+    assert!(!o3.exists(), "a missing surface left files");
     let o = run(&["run", "no/such/pipeline.toml"]);
     assert_eq!(o.status.code(), Some(2));
 }

@@ -51,7 +51,7 @@ impl Pipeline {
     /// Reads a pipeline file and resolves its paths against its folder.
     ///
     /// # Errors
-    /// [`Error::Input`] for an unreadable file, a bad key or a missing scan.
+    /// [`Error::Input`] for an unreadable file, a bad key or value, or a missing scan.
     pub fn load(path: &Path) -> Result<Self> {
         let mut p: Pipeline = crate::config::load(Some(path))?;
         if p.input.scan.as_os_str().is_empty() {
@@ -66,6 +66,10 @@ impl Pipeline {
         p.input.ground_truth = p.input.ground_truth.as_deref().map(|r| relative_to(file, r));
         p.plan.polyline.file = p.plan.polyline.file.as_deref().map(|r| relative_to(file, r));
         resolve_paths(&mut p.sim, file);
+        // Every stage's values before the first stage runs: a bad value of a late stage must
+        // not fail the run after the early stages have written their products.
+        p.plan.validate()?;
+        p.sim.validate()?;
         Ok(p)
     }
 }
@@ -89,6 +93,10 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     inputs.extend(p.sim.surface.as_deref());
     inputs.extend(p.sim.model.as_deref());
     inputs.extend(p.plan.polyline.file.as_deref());
+    // A missing input of a late stage is found before the first stage writes anything.
+    if let Some(missing) = inputs.iter().find(|f| !f.exists()) {
+        return Err(Error::input(missing.display(), "no such file"));
+    }
     let out = OutDir::create(&out_dir, &inputs)?;
     let stages = ctx.progress(2, "pipeline");
     let mut text = format!("pipeline     {}\n", args.pipeline.display());
