@@ -141,11 +141,10 @@ impl Arm {
         f_env_on_tool: Option<&Force>,
     ) -> InverseDynamics {
         let xs = self.transforms(q);
-        let f6 = match f_env_on_tool {
-            None => Force::ZERO,
-            Some(f) => self.flange_wrench(&xs, f),
-        };
-        self.inverse_dynamics_at(&xs, qd, qdd, base, &f6)
+        let mut forces = [Force::ZERO; N_JOINTS];
+        self.forward(&xs, qd, qdd, base, &mut forces, None);
+        let f6 = self.flange_wrench(&xs, f_env_on_tool);
+        self.finish(&xs, forces, f6, qdd, self.friction(qd, None))
     }
 
     /// The part of the inverse dynamics that does not depend on the accelerations, at `(q, q̇)`
@@ -182,10 +181,6 @@ impl Arm {
         base_acceleration: &Motion,
         f_env_on_tool: Option<&Force>,
     ) -> InverseDynamics {
-        let f6 = match f_env_on_tool {
-            None => Force::ZERO,
-            Some(f) => self.flange_wrench(&vt.xs, f),
-        };
         let mut forces = vt.forces;
         let mut a = *base_acceleration;
         for i in 0..N_JOINTS {
@@ -193,13 +188,8 @@ impl Arm {
             a = vt.xs.x[i].motion(&a) + link.axis * qdd[i];
             forces[i] += link.body.total.mul(&a);
         }
-        let mut tau_rigid = JointVector::zeros();
-        let f1 = self.backward(&vt.xs, forces, f6, &mut tau_rigid);
-        InverseDynamics {
-            tau: tau_rigid + self.armature().component_mul(qdd) + vt.friction,
-            tau_rigid,
-            wrench_on_base: -vt.xs.x[0].force_inv(&f1),
-        }
+        let f6 = self.flange_wrench(&vt.xs, f_env_on_tool);
+        self.finish(&vt.xs, forces, f6, qdd, vt.friction)
     }
 
     /// [`Arm::inverse_dynamics_split`] of free motion, and the wrench on the base that the same
@@ -224,29 +214,32 @@ impl Arm {
         )
     }
 
-    /// The inverse dynamics at the link transforms `xs` with the environment's wrench `f6` on
-    /// link 6 (frame 6, about its origin).
-    fn inverse_dynamics_at(
+    /// The inverse dynamics from the links' wrenches `forces` of the forward pass, with the
+    /// environment's wrench `f6` on link 6 (frame 6, about its origin), the joint accelerations
+    /// `qdd` and the drives' friction `friction`: the backward pass and the drive torques.
+    fn finish(
         &self,
         xs: &LinkTransforms,
-        qd: &JointVector,
+        forces: [Force; N_JOINTS],
+        f6: Force,
         qdd: &JointVector,
-        base: &BaseMotion,
-        f6: &Force,
+        friction: JointVector,
     ) -> InverseDynamics {
         let mut tau_rigid = JointVector::zeros();
-        let f1 = self.rnea(xs, qd, qdd, base, f6, &mut tau_rigid, None);
-        let tau = tau_rigid + self.armature().component_mul(qdd) + self.friction(qd, None);
+        let f1 = self.backward(xs, forces, f6, &mut tau_rigid);
         InverseDynamics {
-            tau,
+            tau: tau_rigid + self.armature().component_mul(qdd) + friction,
             tau_rigid,
             wrench_on_base: -xs.x[0].force_inv(&f1),
         }
     }
 
-    /// A wrench on the tool (base-frame axes, moment about the tool point) in frame 6 about its
-    /// origin, at the link transforms `xs`.
-    fn flange_wrench(&self, xs: &LinkTransforms, f: &Force) -> Force {
+    /// A wrench on the tool (base-frame axes, moment about the tool point; `None`: none) in
+    /// frame 6 about its origin, at the link transforms `xs`.
+    fn flange_wrench(&self, xs: &LinkTransforms, f: Option<&Force>) -> Force {
+        let Some(f) = f else {
+            return Force::ZERO;
+        };
         let r60 = xs.x.iter().fold(Matrix3::identity(), |acc, x| x.rot * acc);
         self.tool_wrench_in_flange(&(r60 * f.lin), &(r60 * f.ang))
     }
