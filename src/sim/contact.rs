@@ -360,11 +360,7 @@ mod tests {
             .collect();
         let mesh = TriangleMesh { vertices, triangles };
         let run = |material: Material, steps: u32| {
-            let cfg = ContactConfig {
-                material,
-                stiffness_n_m: 2000.0,
-                ..ContactConfig::default()
-            };
+            let cfg = ContactConfig { material, ..soil() };
             let mut c = Contact::new(&mesh, &cfg).unwrap();
             let v = Vector3::new(0.02, 0.0, 0.0);
             let (mut worst_depth, mut biggest_change) = (0.0_f64, 0.0_f64);
@@ -408,14 +404,18 @@ mod tests {
         assert!(rest.wrench.lin.x.abs() < 1e-12);
     }
 
-    #[test]
-    fn soil_resistance_is_calibrated_to_the_seed() {
-        let cfg = ContactConfig {
+    /// Sediment with its own stiffness.
+    fn soil() -> ContactConfig {
+        ContactConfig {
             material: Material::Soil,
             stiffness_n_m: 2000.0,
             ..ContactConfig::default()
-        };
-        let mut c = Contact::new(&floor(), &cfg).unwrap();
+        }
+    }
+
+    #[test]
+    fn soil_resistance_is_calibrated_to_the_seed() {
+        let mut c = Contact::new(&floor(), &soil()).unwrap();
         let s = c.evaluate(&Point3::new(0.0, 0.0, 0.02), &Vector3::new(0.0, 0.02, 0.0));
         assert!((s.wrench.lin.y + 70.0).abs() < 0.1, "{}", s.wrench.lin.y);
         assert!((s.wrench.lin.z + 40.0).abs() < 1e-9);
@@ -439,11 +439,7 @@ mod tests {
     fn velocity_slope_is_the_derivative_across_the_sliding_and_the_secant_along_it() {
         // Soil and rigid contact, at rest, slow (inside the regularisation), fast, sliding with
         // a normal velocity, and leaving faster than the spring pushes (no force, no slope).
-        let soil = ContactConfig {
-            material: Material::Soil,
-            stiffness_n_m: 2000.0,
-            ..ContactConfig::default()
-        };
+        let soil = soil();
         let velocities = [
             Vector3::zeros(),
             Vector3::new(0.0007, -0.0004, 0.0),
