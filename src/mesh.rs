@@ -2,6 +2,20 @@
 
 use nalgebra::{Isometry3, Point3, Vector3};
 
+/// The barycentric weights of `p` (projected into the triangle's plane) on the triangle
+/// `a, b, c`; the centroid's for a degenerate triangle.
+pub fn barycentric(a: &Point3<f64>, b: &Point3<f64>, c: &Point3<f64>, p: &Point3<f64>) -> [f64; 3] {
+    let (v0, v1, v2) = (b - a, c - a, p - a);
+    let (d00, d01, d11, d20, d21) = (v0.dot(&v0), v0.dot(&v1), v1.dot(&v1), v2.dot(&v0), v2.dot(&v1));
+    let den = d00 * d11 - d01 * d01;
+    if den.abs() < 1e-300 {
+        return [1.0 / 3.0; 3];
+    }
+    let v = (d11 * d20 - d01 * d21) / den;
+    let w = (d00 * d21 - d01 * d20) / den;
+    [1.0 - v - w, v, w]
+}
+
 /// An indexed triangle mesh; triangles are counter-clockwise seen from outside (normals point out).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct TriangleMesh {

@@ -435,18 +435,11 @@ impl Multibody {
 
     /// Velocity of the tool point and angular velocity of the tool, world axes: `[v; ω]`.
     pub fn tool_velocity_world(&self, s: &State) -> Vector6<f64> {
-        self.tool_pose_velocity_world(s).1
+        self.tool_kinematics(s).1
     }
 
-    /// [`Multibody::t_world_tool`] and [`Multibody::tool_velocity_world`] from one forward
-    /// kinematics.
-    pub fn tool_pose_velocity_world(&self, s: &State) -> (Isometry3<f64>, Vector6<f64>) {
-        let (t, v, _) = self.tool_kinematics(s);
-        (t, v)
-    }
-
-    /// [`Multibody::tool_pose_velocity_world`] and the arm's Jacobian of the tool point at
-    /// `s.q` (base frame, [`Arm::jacobian`]), from one forward kinematics.
+    /// [`Multibody::t_world_tool`], [`Multibody::tool_velocity_world`] and the arm's Jacobian of
+    /// the tool point at `s.q` (base frame, [`Arm::jacobian`]), from one forward kinematics.
     pub fn tool_kinematics(&self, s: &State) -> (Isometry3<f64>, Vector6<f64>, Matrix6<f64>) {
         let chain = self.arm.chain(&s.q);
         let t_base_tool = chain.t_base_flange() * self.arm.t_flange_tool;

@@ -4,7 +4,7 @@
 //! Normals returned here are the triangles' own (by winding), whichever side a ray hits from.
 
 use crate::error::{Error, Result};
-use crate::mesh::TriangleMesh;
+use crate::mesh::{TriangleMesh, barycentric};
 use nalgebra::{Point3, Vector3};
 use parry3d_f64::math::Vector as GVec;
 use parry3d_f64::query::{PointProjection, PointQuery, PointQueryWithLocation, Ray, RayCast};
@@ -111,17 +111,8 @@ impl Surface {
             return hit.normal;
         };
         let tri = self.mesh.triangle(t);
-        let (ab, ac, ap) = (tri.b - tri.a, tri.c - tri.a, g(&hit.point) - tri.a);
-        let (d00, d01, d11) = (ab.dot(ab), ab.dot(ac), ac.dot(ac));
-        let (d20, d21) = (ap.dot(ab), ap.dot(ac));
-        let den = d00 * d11 - d01 * d01;
-        if den <= 0.0 {
-            return hit.normal;
-        }
-        let v = (d11 * d20 - d01 * d21) / den;
-        let w = (d00 * d21 - d01 * d20) / den;
-        self.blend(hit.triangle, [1.0 - v - w, v, w])
-            .unwrap_or(hit.normal)
+        let weights = barycentric(&na(tri.a), &na(tri.b), &na(tri.c), &hit.point);
+        self.blend(hit.triangle, weights).unwrap_or(hit.normal)
     }
 
     fn blend(&self, triangle: usize, weights: [f64; 3]) -> Option<Vector3<f64>> {

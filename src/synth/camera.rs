@@ -31,6 +31,7 @@ use super::random::{WaveField, gaussian, stream};
 use super::scene::{SceneGeometry, SurfaceKind};
 use crate::cloud::PointCloud;
 use crate::error::{Error, Result};
+use crate::mesh::barycentric;
 use crate::surface::Surface;
 use nalgebra::{Point3, Vector3};
 use rand::RngExt;
@@ -178,18 +179,6 @@ const ATTENUATION: [f64; 3] = [0.30, 0.06, 0.035];
 const BACKSCATTER: [f64; 3] = [0.03, 0.10, 0.12];
 /// Range at which the camera's white balance makes the water neutral, metres.
 const WHITE_BALANCE_RANGE_M: f64 = 1.0;
-
-fn barycentric(a: &Point3<f64>, b: &Point3<f64>, c: &Point3<f64>, p: &Point3<f64>) -> [f64; 3] {
-    let (v0, v1, v2) = (b - a, c - a, p - a);
-    let (d00, d01, d11, d20, d21) = (v0.dot(&v0), v0.dot(&v1), v1.dot(&v1), v2.dot(&v0), v2.dot(&v1));
-    let den = d00 * d11 - d01 * d01;
-    if den.abs() < 1e-300 {
-        return [1.0 / 3.0; 3];
-    }
-    let v = (d11 * d20 - d01 * d21) / den;
-    let w = (d00 * d21 - d01 * d20) / den;
-    [1.0 - v - w, v, w]
-}
 
 /// Linear RGB reaching the camera from a surface of albedo `albedo` at `range` metres seen at
 /// incidence cosine `cos_inc`.
