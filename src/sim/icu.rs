@@ -183,6 +183,10 @@ impl DriveFilter {
             noise.jerk.powi(2) * dt,
             noise.drive_error.powi(2) * dt,
         ));
+        // The iterations' convergence test: the linearisation point moving by a thousandth of
+        // the tachometers' deviation.
+        const MAX_ITERATIONS: usize = 3;
+        let tolerance = 1e-3 * noise.rate;
         let first = self.state.is_none();
         let joints = self.state.get_or_insert_with(|| {
             // The acceleration is unknown at the start (the first drive equation gives it); the
@@ -230,12 +234,15 @@ impl DriveFilter {
             let z = Vector2::new(qd[i], tau[i] - m_dz[i]);
             // Iterated update: the friction linearised at the latest estimate of `v`. With
             // `H = [1 0 0; F′ I_a 1]` only `F′` changes: `P Hᵀ = [P e₀, F′ P e₀ + P (I_a e₁ + e₂)]`.
+            // At most `MAX_ITERATIONS`; converged once an update moves the linearisation point
+            // `v` by less than `tolerance` (then a further one changes the estimate by far less
+            // than its uncertainty; near rest the steep friction makes that two or three).
             let p0 = p_prior.column(0).into_owned();
             let p12 = p_prior.column(1) * ia + p_prior.column(2);
             let mut xi = x_prior;
             let mut gain = Matrix3x2::zeros();
             let mut h = Matrix2x3::zeros();
-            for _ in 0..3 {
+            for _ in 0..MAX_ITERATIONS {
                 let (f, df) = l.friction(xi[0], Some(eps));
                 h = Matrix2x3::new(1.0, 0.0, 0.0, df, ia, 1.0);
                 let pht = Matrix3x2::from_columns(&[p0, p0 * df + p12]);
@@ -244,7 +251,11 @@ impl DriveFilter {
                     break;
                 };
                 gain = pht * s_inv;
+                let moved_from = xi[0];
                 xi = x_prior + gain * (z - hx - h * (x_prior - xi));
+                if (xi[0] - moved_from).abs() <= tolerance {
+                    break;
+                }
             }
             let ikh = Matrix3::identity() - gain * h;
             *p = ikh * p_prior * ikh.transpose() + gain * r * gain.transpose();
