@@ -233,7 +233,7 @@ impl Multibody {
         let mut cols = Matrix6::zeros();
         // The links' coupling and composite straight in `C`: the mount composed with `x[0]`.
         let root = self.arm.mount.then(&xs.x[0]);
-        let arm_in_body = self.arm.crba::<true>(xs, &root, &mut hqq, &mut cols);
+        let arm_in_body = self.arm.crba(xs, &root, &mut hqq, &mut cols);
         let hvv: Inertia = self.vehicle.total + arm_in_body;
         let mut h = GenMatrix::zeros();
         h.fixed_view_mut::<6, 6>(0, 0).copy_from(&hvv.to_matrix6());
@@ -665,6 +665,37 @@ mod tests {
             b.qdd
         );
         assert!((a.shaft_torque - b.shaft_torque).norm() < 1e-8);
+    }
+
+    #[test]
+    fn mass_matrix_columns_are_the_whole_systems_rnea_with_unit_accelerations() {
+        // The CRBA (in `C`) against the RNEA (body by body, in the link frames): at rest the
+        // generalised force of a unit `ζ̇_k` less the bias is `H e_k` without the rotors.
+        let sys = Multibody::new(&UvmsModel::default()).unwrap();
+        for q in [
+            JointVector::new(0.2, 0.9, -2.0, 0.3, 0.8, -0.2),
+            JointVector::new(-1.1, 0.1, 0.7, -2.5, -1.3, 2.0),
+        ] {
+            let s = State {
+                q,
+                ..State::at_rest(moving().t_world_body, q)
+            };
+            let h = sys.mass_matrix(&q);
+            let bias = sys.inverse_dynamics(&s, &GenVector::zeros(), &Force::ZERO);
+            for k in 0..NDOF {
+                let col =
+                    sys.inverse_dynamics(&s, &GenVector::from_fn(|i, _| f64::from(i == k)), &Force::ZERO)
+                        - bias;
+                let mut want = h.column(k).into_owned();
+                if k >= 6 {
+                    want[k] -= sys.arm.links[k - 6].armature;
+                }
+                assert!(
+                    (col - want).norm() < 1e-12 * h.norm(),
+                    "column {k}: {col} vs {want}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -253,7 +253,7 @@ impl Xform {
     pub fn inertia_inv(&self, i: &Inertia) -> Inertia {
         let e = &self.rot;
         let r = &self.pos;
-        let c1 = e.tr_mul(&(i.c * e));
+        let c1 = congruence(e, &i.c);
         if i.rigid {
             // a = m 1, b = −S(h): h' = Eᵀh + m r, C' = C1 − h' rᵀ − r h1ᵀ + (r·h' + r·h1) 1.
             let m = i.a[(0, 0)];
@@ -269,15 +269,32 @@ impl Xform {
             };
         }
         // Rotate into p axes (still about c's origin), then move the reference point to p's
-        // origin: B' = B − A S(r), C' = C + S(r) B' − Bᵀ S(r).
-        let a = e.tr_mul(&(i.a * e));
+        // origin: B' = B − A S(r), C' = C + S(r) B' − Bᵀ S(r). The products with `S(r)` are
+        // cross products: row k of `A S(r)` is `(A e_k × r)ᵀ` (A symmetric), element `(k, l)`
+        // of `S(r) B'` is `(r × B' e_l)_k` and of `Bᵀ S(r)` is `(B e_k × r)_l`; C' is symmetric
+        // (`S B − Bᵀ S = S B + (S B)ᵀ`, `S A S`), its upper triangle is mirrored.
+        let a = congruence(e, &i.a);
         let b = e.tr_mul(&(i.b * e));
-        let s = skew(r);
-        let b2 = b - a * s;
+        let mut b2 = b;
+        for k in 0..3 {
+            let row = a.column(k).cross(r);
+            for l in 0..3 {
+                b2[(k, l)] -= row[l];
+            }
+        }
+        let sb2: [Vector3<f64>; 3] = std::array::from_fn(|l| r.cross(&b2.column(l)));
+        let bts: [Vector3<f64>; 3] = std::array::from_fn(|k| b.column(k).cross(r));
+        let mut c = c1;
+        for l in 0..3 {
+            for k in 0..=l {
+                c[(k, l)] += sb2[l][k] - bts[k][l];
+                c[(l, k)] = c[(k, l)];
+            }
+        }
         Inertia {
             a,
             b: b2,
-            c: c1 + s * b2 - b.tr_mul(&s),
+            c,
             rigid: false,
         }
     }
@@ -291,6 +308,21 @@ impl Xform {
         x.fixed_view_mut::<3, 3>(3, 3).copy_from(&self.rot);
         x
     }
+}
+
+/// `Eᵀ X E` of a symmetric `X`: its upper triangle (the dot products of `E`'s columns with
+/// those of `X E`), mirrored.
+#[inline]
+fn congruence(e: &Matrix3<f64>, x: &Matrix3<f64>) -> Matrix3<f64> {
+    let xe = x * e;
+    let mut m = Matrix3::zeros();
+    for l in 0..3 {
+        for k in 0..=l {
+            m[(k, l)] = e.column(k).dot(&xe.column(l));
+            m[(l, k)] = m[(k, l)];
+        }
+    }
+    m
 }
 
 /// A symmetric 6×6 generalised mass at a frame's origin, [linear; angular] order:

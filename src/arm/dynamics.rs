@@ -324,44 +324,49 @@ impl Arm {
     }
 
     /// The composite-rigid-body algorithm: the joint-space mass matrix of the links (rigid +
-    /// added mass, no rotor inertia) into `h`. With `FLOATING`, also the coupling with the base
-    /// in the frame `root` maps into frame 1 (`xs.x[0]` for the base frame 0 itself, or the
-    /// vehicle's mount composed with it): `base_cols` column `j` is the wrench that a unit `q̈_j`
-    /// needs there, and the returned inertia is the composite of all links there.
+    /// added mass, no rotor inertia) into `h`, and their coupling with the base in the frame
+    /// `root` maps into frame 1 (`xs.x[0]` for the base frame 0 itself, or the vehicle's mount
+    /// composed with it): `base_cols` column `j` is the wrench that a unit `q̈_j` needs there,
+    /// and the returned inertia is the composite of all links there.
+    ///
+    /// Everything in that one frame: each link's inertia and joint axis are carried there once
+    /// (six inertia transforms, as many as the recursion in the link frames needs), the
+    /// composites are then plain sums, and a column's wrench `Ic_j S_j` is already the base's,
+    /// where the link-frame form carries it down the chain joint by joint
+    /// (`H_ij = S_iᵀ Ic_j S_j` for `i ≤ j`, Featherstone *RBDA* §6.2, in any one frame).
     #[inline]
-    pub(crate) fn crba<const FLOATING: bool>(
+    pub(crate) fn crba(
         &self,
         xs: &LinkTransforms,
         root: &Xform,
         h: &mut Matrix6<f64>,
         base_cols: &mut Matrix6<f64>,
     ) -> Inertia {
-        let mut ic: [Inertia; N_JOINTS] = std::array::from_fn(|i| self.links[i].body.total);
-        for i in (1..N_JOINTS).rev() {
-            let up = xs.x[i].inertia_inv(&ic[i]);
-            ic[i - 1] += up;
-        }
+        let mut axes = [Motion::ZERO; N_JOINTS];
+        let mut ic = [Inertia::ZERO; N_JOINTS];
+        let mut x = *root;
         for i in 0..N_JOINTS {
-            let mut f = ic[i].mul(&self.links[i].axis);
-            h[(i, i)] = self.links[i].axis.dot(&f);
-            let mut j = i;
-            while j > 0 {
-                f = xs.x[j].force_inv(&f);
-                j -= 1;
-                let hij = self.links[j].axis.dot(&f);
+            if i > 0 {
+                x = x.then(&xs.x[i]);
+            }
+            axes[i] = x.motion_inv(&self.links[i].axis);
+            ic[i] = x.inertia_inv(&self.links[i].body.total);
+        }
+        for i in (1..N_JOINTS).rev() {
+            let outer = ic[i];
+            ic[i - 1] += outer;
+        }
+        for j in 0..N_JOINTS {
+            let f = ic[j].mul(&axes[j]);
+            for i in 0..j {
+                let hij = axes[i].dot(&f);
                 h[(i, j)] = hij;
                 h[(j, i)] = hij;
             }
-            if FLOATING {
-                let fb = root.force_inv(&f);
-                base_cols.fixed_view_mut::<6, 1>(0, i).copy_from(&fb.to_vector6());
-            }
+            h[(j, j)] = axes[j].dot(&f);
+            base_cols.fixed_view_mut::<6, 1>(0, j).copy_from(&f.to_vector6());
         }
-        if FLOATING {
-            root.inertia_inv(&ic[0])
-        } else {
-            Inertia::ZERO
-        }
+        ic[0]
     }
 
     /// Joint-space mass matrix of the links alone (rigid bodies + added mass), kg·m².
@@ -369,7 +374,7 @@ impl Arm {
         let mut h = Matrix6::zeros();
         let mut unused = Matrix6::zeros();
         let xs = self.transforms(q);
-        self.crba::<false>(&xs, &xs.x[0], &mut h, &mut unused);
+        self.crba(&xs, &xs.x[0], &mut h, &mut unused);
         h
     }
 
@@ -405,7 +410,7 @@ impl Arm {
         );
         let mut h = Matrix6::zeros();
         let mut unused = Matrix6::zeros();
-        self.crba::<false>(&xs, &xs.x[0], &mut h, &mut unused);
+        self.crba(&xs, &xs.x[0], &mut h, &mut unused);
         for i in 0..N_JOINTS {
             h[(i, i)] += self.links[i].armature;
         }
