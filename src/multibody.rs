@@ -335,10 +335,12 @@ impl Multibody {
             .filter(|_| h != 0.0)
             .map(|t| (t, (t.damping * h) * t.jacobian));
         if let Some((t, dj)) = &tool {
-            let j = &t.jacobian;
-            for c in 0..NDOF {
-                for r in 0..=c {
-                    mass[(r, c)] += j[(0, r)] * dj[(0, c)] + j[(1, r)] * dj[(1, c)] + j[(2, r)] * dj[(2, c)];
+            // Over the column-major storage (no index checks): `J`'s column `r` and `D h J`'s
+            // column `c` give element `(r, c)`, `r ≤ c`.
+            let j = &t.jacobian.data.0;
+            for (c, (col, dj_c)) in mass.data.0.iter_mut().zip(&dj.data.0).enumerate() {
+                for (m, j_r) in col[..=c].iter_mut().zip(j) {
+                    *m += j_r[0] * dj_c[0] + j_r[1] * dj_c[1] + j_r[2] * dj_c[2];
                 }
             }
         }
