@@ -257,8 +257,20 @@ impl DriveFilter {
                     break;
                 }
             }
+            // Joseph form `(I − K H) P (I − K H)ᵀ + K R Kᵀ` (symmetric and positive for any
+            // gain, which the last iteration's is not exactly the optimum of): its upper
+            // triangle, mirrored (`R` is diagonal).
             let ikh = Matrix3::identity() - gain * h;
-            *p = ikh * p_prior * ikh.transpose() + gain * r * gain.transpose();
+            let ap = ikh * p_prior;
+            for c in 0..3 {
+                for k in 0..=c {
+                    let v = ap.row(k).dot(&ikh.row(c))
+                        + gain[(k, 0)] * r[(0, 0)] * gain[(c, 0)]
+                        + gain[(k, 1)] * r[(1, 1)] * gain[(c, 1)];
+                    p[(k, c)] = v;
+                    p[(c, k)] = v;
+                }
+            }
             *x = xi;
             acc[i] = x[1];
         }
