@@ -344,7 +344,13 @@ impl Multibody {
                 }
             }
         }
-        let zd = solve_spd(&mass, &rhs).ok_or_else(not_definite)?;
+        // Without the tool's damper the step's matrix is the explicit one but for the joints'
+        // diagonal: the vehicle's rows of the explicit factor are the step's.
+        let zd = match (&explicit, &tool) {
+            (Some(f), None) => f.with_diagonal_from(&mass, 6).map(|f| f.solve(&rhs)),
+            _ => solve_spd(&mass, &rhs),
+        }
+        .ok_or_else(not_definite)?;
         let qdd: JointVector = zd.fixed_rows::<N_JOINTS>(6).into_owned();
         let tool_force = match &tool {
             Some((_, dj)) => u.f_env_on_tool - Force::new(dj * zd, Vector3::zeros()),
@@ -514,6 +520,18 @@ struct Cholesky12 {
 impl Cholesky12 {
     /// `None` if the matrix is not positive definite (or holds a NaN).
     fn new(h: &GenMatrix) -> Option<Self> {
+        Self::factor(h, None)
+    }
+
+    /// The factor of `h`, which differs from `known`'s matrix only on the diagonal from row
+    /// `from` on: the factor's rows before `from`, and the others' columns before `from`, read
+    /// nothing that differs and are `known`'s; the rest is computed as [`Cholesky12::new`]
+    /// computes it (the same numbers, for the work of the columns from `from` on).
+    fn with_diagonal_from(&self, h: &GenMatrix, from: usize) -> Option<Self> {
+        Self::factor(h, Some((self, from)))
+    }
+
+    fn factor(h: &GenMatrix, known: Option<(&Cholesky12, usize)>) -> Option<Self> {
         const N: usize = NDOF;
         // Column-major storage of a symmetric matrix: `l[r]` is row `r` (and column `r`). With
         // the reciprocals of L's diagonal: one division per row instead of one per element.
@@ -521,11 +539,21 @@ impl Cholesky12 {
             l: h.data.0,
             inv: [0.0; N],
         };
+        let from = match known {
+            Some((k, from)) => {
+                for (row, known_row) in f.l.iter_mut().zip(&k.l) {
+                    row[..from].copy_from_slice(&known_row[..from]);
+                }
+                f.inv[..from].copy_from_slice(&k.inv[..from]);
+                from
+            }
+            None => 0,
+        };
         let Cholesky12 { l, inv } = &mut f;
-        for j in 0..N {
+        for j in from..N {
             let (done, rest) = l.split_at_mut(j);
             let row_j = &mut rest[0];
-            for (k, row_k) in done.iter().enumerate() {
+            for (k, row_k) in done.iter().enumerate().skip(from) {
                 let mut s = row_j[k];
                 for m in 0..k {
                     s -= row_j[m] * row_k[m];
@@ -620,6 +648,20 @@ mod tests {
         let mut bad = h;
         bad[(7, 7)] = -1.0;
         assert!(solve_spd(&bad, &b).is_none());
+        // Refactorised with another joint diagonal: the same factor as afresh.
+        let mut stiffer = h;
+        for j in 6..NDOF {
+            stiffer[(j, j)] += 0.3 * j as f64;
+        }
+        let (afresh, reused) = (
+            Cholesky12::new(&stiffer).unwrap(),
+            Cholesky12::new(&h)
+                .unwrap()
+                .with_diagonal_from(&stiffer, 6)
+                .unwrap(),
+        );
+        assert_eq!((afresh.l, afresh.inv), (reused.l, reused.inv));
+        assert!(Cholesky12::new(&h).unwrap().with_diagonal_from(&bad, 6).is_none());
     }
 
     #[test]
