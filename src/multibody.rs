@@ -531,6 +531,8 @@ impl Cholesky12 {
         Self::factor(h, Some((self, from)))
     }
 
+    /// The factor of `h`, row by row; with `known = (k, from)` the rows and columns before
+    /// `from` are `k`'s ([`Cholesky12::with_diagonal_from`]).
     fn factor(h: &GenMatrix, known: Option<(&Cholesky12, usize)>) -> Option<Self> {
         const N: usize = NDOF;
         // Column-major storage of a symmetric matrix: `l[r]` is row `r` (and column `r`). With
@@ -720,10 +722,7 @@ mod tests {
             JointVector::new(0.2, 0.9, -2.0, 0.3, 0.8, -0.2),
             JointVector::new(-1.1, 0.1, 0.7, -2.5, -1.3, 2.0),
         ] {
-            let s = State {
-                q,
-                ..State::at_rest(moving().t_world_body, q)
-            };
+            let s = State::at_rest(moving().t_world_body, q);
             let h = sys.mass_matrix(&q);
             let bias = sys.inverse_dynamics(&s, &GenVector::zeros(), &Force::ZERO);
             for k in 0..NDOF {
