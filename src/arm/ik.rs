@@ -88,8 +88,8 @@ impl Arm {
 
     /// The solutions, nearest to `q_now` first: every analytic solution moved into the limits,
     /// sorted by distance (stable), and checked by forward kinematics. With `nearest_only` the
-    /// search is pruned (see below), the result is the nearest alone and `analytic` counts only
-    /// the solutions looked at.
+    /// search is pruned (see below), the result is the nearest alone and `analytic` is not
+    /// counted. Inline: [`Arm::ik_nearest`]'s copy keeps only the pruned search.
     #[inline]
     fn solve_ik(
         &self,
