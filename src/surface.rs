@@ -7,6 +7,7 @@ use crate::error::{Error, Result};
 use crate::mesh::{TriangleMesh, barycentric};
 use nalgebra::{Point3, Vector3};
 use parry3d_f64::math::Vector as GVec;
+use parry3d_f64::partitioning::BvhNode;
 use parry3d_f64::query::{PointProjection, PointQuery, PointQueryWithLocation, Ray, RayCast};
 use parry3d_f64::shape::TrianglePointLocation;
 use parry3d_f64::shape::{TriMesh, TriMeshFlags};
@@ -46,6 +47,42 @@ pub struct Projection {
     /// The triangle's unit normal (by its winding).
     pub normal: Vector3<f64>,
 }
+
+/// The triangles around a point, for [`Surface::project_tracked`]: every triangle within
+/// `radius` of `centre`, with its distance from there, nearest first. Empty until the first
+/// query.
+#[derive(Debug, Clone)]
+pub struct Neighbourhood {
+    /// How far a query may stray from the centre before the list is rebuilt, m: a longer list
+    /// against fewer rebuilds.
+    reach: f64,
+    centre: GVec,
+    radius: f64,
+    /// The distance from the centre to the closest triangle, m.
+    closest: f64,
+    triangles: Vec<(f64, u32)>,
+    /// The last query's nearest triangles, with their projections.
+    nearest: Vec<(u32, PointProjection, TrianglePointLocation)>,
+}
+
+impl Neighbourhood {
+    /// An empty list that will cover `reach` metres around the point it is built for.
+    pub fn new(reach: f64) -> Self {
+        Neighbourhood {
+            reach,
+            centre: GVec::ZERO,
+            radius: f64::NEG_INFINITY,
+            closest: f64::INFINITY,
+            triangles: Vec::new(),
+            nearest: Vec::new(),
+        }
+    }
+}
+
+/// The margin on the distances compared in [`Surface::project_tracked`], m: far above their
+/// round-off for coordinates within kilometres of the origin, far below anything a query
+/// could gain from it.
+const NEAR_SLACK_M: f64 = 1e-9;
 
 fn g(p: &Point3<f64>) -> GVec {
     GVec::new(p.x, p.y, p.z)
@@ -148,29 +185,108 @@ impl Surface {
         self.projection(p, &proj, tri, &loc)
     }
 
-    /// [`Surface::project`] warm-started by the triangle `hint` (the last closest triangle of a
-    /// point that moves a little between queries): the distance to it bounds the search, so the
-    /// BVH descends only into boxes nearer than that. The closest point is the same; of
-    /// triangles equally near (the point closest to a shared edge or vertex) the search may
-    /// settle on another one than `project` would.
-    pub fn project_near(&self, p: &Point3<f64>, hint: usize) -> Projection {
+    /// [`Surface::project`] for a point that moves a little between queries (a tool tip along
+    /// its path), over the triangles `near` lists around an earlier point instead of the whole
+    /// mesh; `near` is rebuilt around `p` when `p` has left the part of space where that is
+    /// exact. The same projection as [`Surface::project`], which is the first of the equally
+    /// near triangles (the point closest to a shared edge or vertex) in its tree's order:
+    /// [`Surface::first_in_tree_order`] settles those.
+    ///
+    /// Why the list suffices: it holds every triangle within `radius` of its centre `c`, whose
+    /// closest triangle is `d_c` away. From `p` at `m = |p − c|` the closest triangle is at most
+    /// `d_c + m` away, so at most `d_c + 2m` from `c`: listed while `d_c + 2m ≤ radius`. The
+    /// list is sorted by the distance `d_t` from `c`, and a triangle is at least `d_t − m` from
+    /// `p`: the scan stops at the first one that cannot be as near as the best so far. The
+    /// round-off of the distances (~1e-16 of the coordinates) is covered by [`NEAR_SLACK_M`].
+    pub fn project_tracked(&self, p: &Point3<f64>, near: &mut Neighbourhood) -> Projection {
         let q = g(p);
-        let Ok(hint) = u32::try_from(hint) else {
-            return self.project(p);
-        };
-        if hint as usize >= self.triangle_count() {
-            return self.project(p);
+        let mut m = (q - near.centre).length();
+        // (False for a point that is not finite too: the list is rebuilt, finds nothing, and
+        // the full search answers.)
+        let covered = near.closest + 2.0 * m + NEAR_SLACK_M <= near.radius;
+        if !covered {
+            self.gather(q, near);
+            m = 0.0;
         }
-        let bound = (self.mesh.triangle(hint).project_local_point(q, false).point - q).length();
-        // Strictly inside the bound is what the search accepts: widen it by the round-off.
-        let max_dist = bound * (1.0 + 1e-9) + 1e-12;
-        match self
-            .mesh
-            .project_local_point_and_get_location_with_max_dist(q, false, max_dist)
-        {
-            Some((proj, (tri, loc))) => self.projection(p, &proj, tri, &loc),
+        // The nearest triangles (all of them when equally near): the search's cost, computed
+        // as it does.
+        let mut best = f64::MAX;
+        near.nearest.clear();
+        for &(d_t, t) in &near.triangles {
+            if d_t - m > best + NEAR_SLACK_M {
+                break;
+            }
+            let (proj, loc) = self
+                .mesh
+                .triangle(t)
+                .project_local_point_and_get_location(q, false);
+            let cost = (proj.point - q).length();
+            if cost < best {
+                best = cost;
+                near.nearest.clear();
+            }
+            if cost == best {
+                near.nearest.push((t, proj, loc));
+            }
+        }
+        let chosen = match near.nearest[..] {
+            [] => None,
+            [one] => Some(one),
+            ref tied => self.first_in_tree_order(q, tied),
+        };
+        match chosen {
+            Some((t, proj, loc)) => self.projection(p, &proj, t, &loc),
             None => self.project(p),
         }
+    }
+
+    /// Of equally near triangles, the one [`Surface::project`]'s search settles on: the first
+    /// it meets. It walks the tree depth first, at each node into the child whose box is
+    /// nearer (the left one of two equally near); walked in the same way through the boxes
+    /// that hold one of the closest points (all others skipped), it meets the same one first.
+    fn first_in_tree_order(
+        &self,
+        q: GVec,
+        tied: &[(u32, PointProjection, TrianglePointLocation)],
+    ) -> Option<(u32, PointProjection, TrianglePointLocation)> {
+        let slack = GVec::splat(NEAR_SLACK_M);
+        let box_cost = |node: &BvhNode, _: f64| {
+            let b = node.aabb();
+            let holds = |(_, proj, _): &(u32, PointProjection, TrianglePointLocation)| {
+                (b.mins - slack).cmple(proj.point).all() && proj.point.cmple(b.maxs + slack).all()
+            };
+            // `f64::MAX`: the search does not enter the box.
+            if tied.iter().any(holds) {
+                b.distance_to_local_point(q, true)
+            } else {
+                f64::MAX
+            }
+        };
+        // The first tied triangle met ends the search: nothing costs less than zero.
+        let leaf_cost = |leaf: u32, _: f64| tied.iter().any(|c| c.0 == leaf).then_some(0.0);
+        let (first, _) = self.mesh.bvh().find_best(f64::MAX, box_cost, leaf_cost)?;
+        tied.iter().find(|c| c.0 == first).copied()
+    }
+
+    /// Lists in `near` every triangle within `d + 2·near.reach` of `q` (`d`: the distance to
+    /// the closest one), nearest first.
+    fn gather(&self, q: GVec, near: &mut Neighbourhood) {
+        let (proj, _) = self.mesh.project_local_point_and_get_location(q, false);
+        let radius = (proj.point - q).length() + 2.0 * near.reach + NEAR_SLACK_M;
+        near.triangles.clear();
+        // A box is at most as far as anything in it.
+        let within = |node: &BvhNode| node.aabb().distance_to_local_point(q, true) <= radius + NEAR_SLACK_M;
+        for t in self.mesh.bvh().leaves(within) {
+            let d = (self.mesh.triangle(t).project_local_point(q, false).point - q).length();
+            if d <= radius {
+                near.triangles.push((d, t));
+            }
+        }
+        near.triangles
+            .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        near.centre = q;
+        near.radius = radius;
+        near.closest = near.triangles.first().map_or(f64::INFINITY, |&(d, _)| d);
     }
 
     fn projection(
@@ -292,24 +408,65 @@ mod tests {
         assert!(!s.contains(&Point3::new(1.3, 0.3, 0.3)));
     }
 
+    /// A bumpy heightfield of 2 × 40 × 40 triangles over the unit square: a tree of some depth,
+    /// and vertices at peaks and in pits.
+    fn bumps() -> TriangleMesh {
+        let n = 41_u32;
+        let z = |x: f64, y: f64| 0.05 * (9.0 * x).sin() * (7.0 * y).cos();
+        let vertices = (0..n * n)
+            .map(|i| {
+                let (x, y) = (f64::from(i % n) / 40.0, f64::from(i / n) / 40.0);
+                Point3::new(x, y, z(x, y))
+            })
+            .collect();
+        let triangles = (0..n - 1)
+            .flat_map(|j| (0..n - 1).map(move |i| j * n + i))
+            .flat_map(|v| [[v, v + 1, v + n + 1], [v, v + n + 1, v + n]])
+            .collect();
+        TriangleMesh { vertices, triangles }
+    }
+
+    /// The tracked projection is the full search's, triangle and all: along random walks of
+    /// small steps (a tool tip) with jumps anywhere now and then, and from points whose closest
+    /// point is a vertex or lies on an edge, where several triangles are equally near and the
+    /// search's own order decides.
     #[test]
-    fn projection_warm_started_anywhere_finds_the_same_closest_point() {
-        let s = Surface::new(&cube()).unwrap();
-        let mut rng = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            (rng >> 11) as f64 / (1u64 << 53) as f64 * 3.0 - 1.0
-        };
-        for _ in 0..200 {
-            let p = Point3::new(next(), next(), next());
-            let want = s.project(&p);
-            for hint in [0, 5, 11, want.triangle, 99] {
-                let got = s.project_near(&p, hint);
-                assert!((got.point - want.point).norm() < 1e-12, "{p} from {hint}");
-                assert_eq!(got.distance, want.distance);
+    fn tracked_projection_is_the_full_search_s() {
+        use rand::rngs::ChaCha8Rng;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for (mesh, step) in [(cube(), 0.01), (bumps(), 0.002)] {
+            let s = Surface::new(&mesh).unwrap();
+            let mut near = Neighbourhood::new(0.005);
+            let mut p = Point3::new(0.5, 0.5, 0.2);
+            for k in 0..4000 {
+                let mut r = |a: f64, b: f64| rng.random_range(a..b);
+                p = if k % 97 == 0 {
+                    Point3::new(r(-1.0, 2.0), r(-1.0, 2.0), r(-1.0, 2.0))
+                } else {
+                    p + Vector3::new(r(-step, step), r(-step, step), r(-step, step))
+                };
+                assert_eq!(s.project_tracked(&p, &mut near), s.project(&p), "{p} at {k}");
             }
+            // Off the vertices and the edges' midpoints along the mean of their triangles'
+            // normals (outside and inside); the list finds the equally near triangles.
+            let normals = mesh.vertex_normals();
+            let (mut probes, mut ties) = (0, 0);
+            for t in mesh.triangles.iter().step_by(3) {
+                for e in 0..3 {
+                    let (i, j) = (t[e] as usize, t[(e + 1) % 3] as usize);
+                    let (vi, vj) = (mesh.vertices[i], mesh.vertices[j]);
+                    for (base, n) in [(vi, normals[i]), (vi + (vj - vi) / 2.0, normals[i] + normals[j])] {
+                        for h in [0.003, -0.003] {
+                            let p = base + n.normalize() * h;
+                            assert_eq!(s.project_tracked(&p, &mut near), s.project(&p), "{p}");
+                            ties += usize::from(near.nearest.len() > 1);
+                            probes += 1;
+                        }
+                    }
+                }
+            }
+            assert!(4 * ties > probes, "{ties} ties of {probes}");
         }
     }
 

@@ -88,8 +88,9 @@ impl Arm {
 
     /// The solutions, nearest to `q_now` first: every analytic solution moved into the limits,
     /// sorted by distance (stable), and checked by forward kinematics. With `nearest_only` the
-    /// search is pruned (see below), the result is the nearest alone and `analytic` counts only
-    /// the solutions looked at.
+    /// search is pruned (see below), the result is the nearest alone and `analytic` is not
+    /// counted. Inline: [`Arm::ik_nearest`]'s copy keeps only the pruned search.
+    #[inline]
     fn solve_ik(
         &self,
         t_base_tool: &Isometry3<f64>,
@@ -163,6 +164,8 @@ impl Arm {
         // skipped cannot be the nearest, so the result is the search's without skipping.
         let mut order: [usize; 4] = std::array::from_fn(|i| i);
         let mut partial = [f64::INFINITY; 4];
+        // ...and their q1..q3 fitted into the limits.
+        let mut fitted = [[0.0; 3]; 4];
         let mut q1_distance = [f64::INFINITY; 2];
         let mut shoulder_order = [0, 1];
         if nearest_only {
@@ -207,6 +210,7 @@ impl Arm {
                 for i in group..group + 2 {
                     if let Some(q) = self.fit_joints(&pairs[i], 0, q_now) {
                         partial[i] = (0..3).map(|j| (q[j] - q_now[j]).powi(2)).sum();
+                        fitted[i] = q;
                     }
                 }
                 visit.sort_by(|&a, &b| partial[a].total_cmp(&partial[b]));
@@ -222,7 +226,25 @@ impl Arm {
                 // R_3_6 Rx(−α6) = Rz(θ4) Ry(−θ5) Rz(θ6).
                 let m: Matrix3<f64> = r03.transpose() * r06 * rx;
                 let sb = m[(0, 2)].hypot(m[(1, 2)]);
-                let wrists: [(f64, f64, f64); 2] = if sb < 1e-10 {
+                // The wrist's angles (θ4, θ5, θ6) with sin θ5 of the sign `sg`; at the
+                // singularity (θ5 = 0 or π) one solution, with q4 kept.
+                let wrist = |sg: f64| {
+                    let b = (sg * sb).atan2(m[(2, 2)]);
+                    let theta4 = (sg * m[(1, 2)]).atan2(sg * m[(0, 2)]);
+                    let theta6 = (sg * m[(2, 1)]).atan2(-sg * m[(2, 0)]);
+                    (theta4, b, theta6)
+                };
+                let raw_wrist =
+                    |(theta4, b, theta6): (f64, f64, f64)| [theta4 - off(3), -b - off(4), theta6 - off(5)];
+                let singular = sb < 1e-10;
+                // For the nearest alone the wrist with θ5 on `q_now`'s side first (the other
+                // is then seldom needed, see below): the sign of sin θ5, θ5 = −(q5 + θ5 offset).
+                let side = if nearest_only && wrapped_signed(q_now[4] + off(4)) > 0.0 {
+                    -1.0
+                } else {
+                    1.0
+                };
+                let first = if singular {
                     let theta4 = q_now[3] + off(3);
                     let (b, sum_or_diff) = if m[(2, 2)] > 0.0 {
                         (0.0, m[(1, 0)].atan2(m[(0, 0)]))
@@ -234,36 +256,79 @@ impl Arm {
                     } else {
                         theta4 - sum_or_diff
                     };
-                    [(theta4, b, theta6); 2]
+                    (theta4, b, theta6)
                 } else {
-                    [1.0, -1.0].map(|sg: f64| {
-                        let b = (sg * sb).atan2(m[(2, 2)]);
-                        let theta4 = (sg * m[(1, 2)]).atan2(sg * m[(0, 2)]);
-                        let theta6 = (sg * m[(2, 1)]).atan2(-sg * m[(2, 0)]);
-                        (theta4, b, theta6)
-                    })
+                    wrist(side)
                 };
-                let distinct = if sb < 1e-10 { 1 } else { 2 };
-                for (w, &(theta4, b, theta6)) in wrists[..distinct].iter().enumerate() {
-                    out.analytic += 1;
-                    let wrist = [theta4 - off(3), -b - off(4), theta6 - off(5)];
-                    let raw = [q123[0], q123[1], q123[2], wrist[0], wrist[1], wrist[2]];
-                    let Some(q) = self.fit_limits(&raw, q_now) else {
-                        continue;
-                    };
-                    if nearest_only {
-                        // Analytic order: two wrists per pair.
-                        let (d, rank) = (dist(&q), 2 * pair + w);
-                        if best.is_none_or(|(bd, br, _)| d < bd || (d == bd && rank < br))
-                            && self.wrist_matches(&r03, &p03, &wrist, t_base_tool)
-                        {
-                            best = Some((d, rank, q));
+                // Their ranks in the analytic order: two wrists per pair, sin θ5 ≥ 0 first.
+                let (first_rank, other_rank) = if side > 0.0 || singular {
+                    (2 * pair, 2 * pair + 1)
+                } else {
+                    (2 * pair + 1, 2 * pair)
+                };
+                if !nearest_only {
+                    let second = (!singular).then(|| wrist(-1.0));
+                    for angles in std::iter::once(first).chain(second) {
+                        out.analytic += 1;
+                        let w = raw_wrist(angles);
+                        let raw = [q123[0], q123[1], q123[2], w[0], w[1], w[2]];
+                        if let Some(q) = self.fit_limits(&raw, q_now) {
+                            out.solutions[out.len] = q;
+                            wrist_of[out.len] = (pair, w);
+                            out.len += 1;
                         }
-                    } else {
-                        out.solutions[out.len] = q;
-                        wrist_of[out.len] = (pair, wrist);
-                        out.len += 1;
                     }
+                    continue;
+                }
+                // For the nearest alone: a candidate is the pair's joints as fitted above and
+                // the wrist's, ranked in the analytic order (two wrists per pair).
+                let candidate = |w: [f64; 3], rank: usize| {
+                    let [q1, q2, q3] = fitted[pair];
+                    let [q4, q5, q6] = self.fit_joints(&w, 3, q_now)?;
+                    let q = JointVector::new(q1, q2, q3, q4, q5, q6);
+                    Some((dist(&q), rank, q, w))
+                };
+                let a = candidate(raw_wrist(first), first_rank);
+                // The other wrist is (θ4 ± π, −θ5, θ6 ± π): its distance bounded below from the
+                // first's angles, which are within round-off of those (1e-9 rad covers that and
+                // the limits' tolerance), so that it is computed only when it may be nearer
+                // than the best so far, and checked first when it may be nearer than the first.
+                let bound = if singular {
+                    f64::INFINITY
+                } else {
+                    let (theta4, b, theta6) = first;
+                    let near = raw_wrist((theta4 + PI, -b, theta6 + PI));
+                    partial[pair]
+                        + (0..3)
+                            .map(|j| (wrapped(near[j] - q_now[3 + j]) - 1e-9).max(0.0).powi(2))
+                            .sum::<f64>()
+                };
+                let mut candidates = [a, None];
+                let may_beat_first = a.is_none_or(|(d, rank, q, _)| !farther(&Some((d, rank, q)), bound));
+                if may_beat_first && !farther(&best, bound) {
+                    candidates[1] = candidate(raw_wrist(wrist(-side)), other_rank);
+                    if let [Some(x), Some(y)] = &candidates
+                        && (y.0 < x.0 || (y.0 == x.0 && y.1 < x.1))
+                    {
+                        candidates.swap(0, 1);
+                    }
+                }
+                // Nearest first: once one passes the check the other is not looked at.
+                for (d, rank, q, w) in candidates.into_iter().flatten() {
+                    if best.is_none_or(|(bd, br, _)| d < bd || (d == bd && rank < br))
+                        && self.wrist_matches(&r03, &p03, &w, t_base_tool)
+                    {
+                        best = Some((d, rank, q));
+                    }
+                }
+                // The first failed its check: the other may still be the nearest.
+                if !may_beat_first
+                    && !farther(&best, bound)
+                    && let Some((d, rank, q, w)) = candidate(raw_wrist(wrist(-side)), other_rank)
+                    && best.is_none_or(|(bd, br, _)| d < bd || (d == bd && rank < br))
+                    && self.wrist_matches(&r03, &p03, &w, t_base_tool)
+                {
+                    best = Some((d, rank, q));
                 }
             }
         }
@@ -332,7 +397,15 @@ impl Arm {
         for (j, qj) in q.iter_mut().enumerate() {
             let (i, raw) = (first + j, raw[j]);
             let [lo, hi] = self.links[i].limits;
-            // Candidates raw + 2πk inside [lo, hi]; the one nearest to q_now.
+            // Candidates raw + 2πk inside [lo, hi]; the one nearest to q_now. That one is
+            // raw + 2πk for the k nearest q_now when this lies inside the limits by more than the
+            // round-off of the bounds on k below: then it is within them, and clamped to itself.
+            let k_near = round_i64((q_now[i] - raw) / TAU);
+            let nearest = raw + TAU * k_near as f64;
+            if nearest >= lo + 1e-9 && nearest <= hi - 1e-9 {
+                *qj = nearest;
+                continue;
+            }
             let k_lo = ceil_i64((lo - raw) / TAU);
             let k_hi = floor_i64((hi - raw) / TAU);
             if k_lo > k_hi {
@@ -344,7 +417,6 @@ impl Arm {
                 }
                 return None;
             }
-            let k_near = round_i64((q_now[i] - raw) / TAU);
             let k = k_near.clamp(k_lo, k_hi);
             *qj = raw + TAU * k as f64;
         }
@@ -403,6 +475,16 @@ fn floor_i64(x: f64) -> i64 {
 fn ceil_i64(x: f64) -> i64 {
     let t = x as i64;
     if (t as f64) < x { t + 1 } else { t }
+}
+
+/// The angle `x` less the nearest multiple of 2π, in [−π, π] (within its round-off).
+fn wrapped_signed(x: f64) -> f64 {
+    x - TAU * round_i64(x / TAU) as f64
+}
+
+/// The distance of the angle `x` from the nearest multiple of 2π (within its round-off).
+fn wrapped(x: f64) -> f64 {
+    wrapped_signed(x).abs()
 }
 
 /// Halves away from zero, as `f64::round`.
@@ -523,11 +605,20 @@ mod tests {
         for k in 0..4_000 {
             let q = random_q(&arm, &mut rng);
             let target = arm.t_base_tool(&q);
-            // A far configuration, or one near the solution (as when following a path).
-            let q_now = if k % 2 == 0 {
-                random_q(&arm, &mut rng)
-            } else {
-                q + JointVector::from_fn(|_, _| rng.random_range(-0.05..0.05))
+            // A far configuration, one near the solution (as when following a path), or one
+            // near the solution with the wrist flipped (θ4 + π, −θ5, θ6 + π).
+            let near = JointVector::from_fn(|_, _| rng.random_range(-0.05..0.05));
+            let q_now = match k % 3 {
+                0 => random_q(&arm, &mut rng),
+                1 => q + near,
+                _ => {
+                    let o = |i: usize| arm.links[i].dh.theta_offset;
+                    let mut flipped = q;
+                    flipped[3] += PI;
+                    flipped[4] = -(q[4] + o(4)) - o(4);
+                    flipped[5] += PI;
+                    flipped + near
+                }
             };
             let all = arm.ik(&target, &q_now).unwrap();
             assert_eq!(arm.ik_nearest(&target, &q_now).unwrap().as_ref(), all.nearest());

@@ -33,7 +33,7 @@ use crate::config::{non_negative, positive};
 use crate::error::Result;
 use crate::mesh::TriangleMesh;
 use crate::spatial_algebra::Force;
-use crate::surface::Surface;
+use crate::surface::{Neighbourhood, Surface};
 use nalgebra::{Matrix3, Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -141,9 +141,14 @@ impl ContactState {
 pub struct Contact {
     surface: Surface,
     cfg: ContactConfig,
-    /// The closest triangle of the last query, which starts the next one's search.
-    last_triangle: Option<usize>,
+    /// The triangles around the tool tip, for the next query's closest point.
+    near: Neighbourhood,
 }
+
+/// How far the tool tip may move before the triangles around it are listed anew, m: a few
+/// hundred control periods at the tool's centimetres per second, and a list of a few triangles
+/// of the bottle's mesh.
+const NEIGHBOURHOOD_REACH_M: f64 = 0.0005;
 
 impl Contact {
     /// The contact with `mesh` (world frame; triangles wound so their normals point out of the
@@ -156,18 +161,15 @@ impl Contact {
         Ok(Contact {
             surface: Surface::new(mesh)?,
             cfg: *cfg,
-            last_triangle: None,
+            near: Neighbourhood::new(NEIGHBOURHOOD_REACH_M),
         })
     }
 
-    /// The contact force on a tool tip at `tip` moving with velocity `v` (world). The search
-    /// for the closest point starts from the last query's closest triangle.
+    /// The contact force on a tool tip at `tip` moving with velocity `v` (world). The closest
+    /// point is searched among the triangles around the last queries' tips
+    /// ([`Surface::project_tracked`]).
     pub fn evaluate(&mut self, tip: &Point3<f64>, v: &Vector3<f64>) -> ContactState {
-        let proj = match self.last_triangle {
-            Some(t) => self.surface.project_near(tip, t),
-            None => self.surface.project(tip),
-        };
-        self.last_triangle = Some(proj.triangle);
+        let proj = self.surface.project_tracked(tip, &mut self.near);
         let inside = (proj.point - tip).dot(&proj.normal) > 0.0;
         let immersion = match self.cfg.material {
             Material::Soil if inside => self.immersion(tip),

@@ -22,6 +22,7 @@ use crate::plot::{Figure, Panel, Series};
 use crate::trajectory::{Phase, Sample};
 use nalgebra::{Isometry3, Vector3};
 use serde::Serialize;
+use std::fmt::Write as _;
 use std::io::Write;
 
 /// One row of the time series.
@@ -388,8 +389,12 @@ pub fn write_csv(rows: &[Row], w: &mut dyn Write) -> Result<()> {
     )
     .map_err(io)?;
     writeln!(w, "{}", head.join(",")).map_err(io)?;
+    // One line and one list of values reused for every row: the numbers are written straight
+    // into the line (formatting each into a string of its own and joining them cost a third
+    // of the file's time).
+    let (mut v, mut line) = (Vec::<f64>::new(), String::new());
     for r in rows {
-        let mut v: Vec<f64> = vec![r.t, r.clock];
+        v.clear();
         for j in [&r.q, &r.q_ref, &r.tau, &r.m_ez_true, &r.m_ez_id] {
             v.extend(j.iter());
         }
@@ -403,18 +408,14 @@ pub fn write_csv(rows: &[Row], w: &mut dyn Write) -> Result<()> {
         v.push(r.r.norm());
         v.extend(r.rpy);
         v.extend(r.thrusts.iter());
-        let nums: Vec<String> = v.iter().map(|x| format!("{x:.6e}")).collect();
-        let (t, rest) = nums.split_at(2);
-        writeln!(
-            w,
-            "{},{},{},{},{}",
-            t[0],
-            t[1],
-            r.phase.as_str(),
-            rest.join(","),
-            u8::from(r.contact)
-        )
-        .map_err(io)?;
+        line.clear();
+        // Writing into a `String` cannot fail.
+        let _ = write!(line, "{:.6e},{:.6e},{}", r.t, r.clock, r.phase.as_str());
+        for x in &v {
+            let _ = write!(line, ",{x:.6e}");
+        }
+        let _ = writeln!(line, ",{}", u8::from(r.contact));
+        w.write_all(line.as_bytes()).map_err(io)?;
     }
     Ok(())
 }
