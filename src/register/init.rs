@@ -16,7 +16,10 @@
 //!    `√mean(min(d², τ²))`. The coarse ICPs run in lockstep, a few iterations at a time; between
 //!    blocks a run stops when it has come within 0.1 τ of a run ahead of it (it would end where
 //!    that one ends) or when its score is out of contention (step 4's bound) with the best so far —
-//!    a bound that only bites once some run fits to near the noise floor;
+//!    a bound that only bites once some run fits to near the noise floor — or has reached that
+//!    floor, 0.1 τ (the refinement takes it on from there). The last two tests also run before the
+//!    first block, on the start scores: a candidate that already fits to the floor spares every
+//!    other candidate out of contention with it its coarse ICP;
 //! 4. the `refine` best distinct candidates (laying the model's major axis differently, or turned
 //!    by more than 90° — so both end-to-end orientations of a bottle get there) that are still in
 //!    contention (`refine_within`) get a longer ICP on more points and are scored again; the best
@@ -348,6 +351,31 @@ pub fn initial_guess(
             c.t_model_scan,
         )
     };
+    // Before every block (the first included, on the start scores): a run whose score is out of
+    // contention with the best so far (the refinement's own bound, which is loose unless some run
+    // already fits to within the noise floor) stops, as it will not be refined; and so does a run
+    // that has reached the noise floor, 0.1 τ: further coarse steps could only reorder it among
+    // scores the noise cannot tell apart, and its refinement starts with its gate at that floor.
+    let floor = 0.1 * tau;
+    let settle = |runs: &mut [CoarseRun], now: Vec<Option<(Pose, f64)>>| {
+        let best = runs
+            .iter()
+            .zip(&now)
+            .filter_map(|(c, n)| c.done.or(*n).map(|d| d.1))
+            .fold(f64::INFINITY, f64::min);
+        let bound = contention(best);
+        for (c, n) in runs.iter_mut().zip(now) {
+            if let Some(n) = n.filter(|n| n.1 > bound || n.1 <= floor) {
+                c.running = false;
+                c.done = Some(n);
+            }
+        }
+    };
+    let starts = coarse_runs
+        .iter()
+        .map(|c| Some((c.start, c.start_score)))
+        .collect();
+    settle(&mut coarse_runs, starts);
     while coarse_runs.iter().any(|c| c.running) {
         coarse_runs.par_iter_mut().filter(|c| c.running).for_each(|c| {
             let run = short(c.left.min(COARSE_BLOCK));
@@ -381,28 +409,14 @@ pub fn initial_guess(
                 coarse_runs[i].redundant = true;
             }
         }
-        // A run still going whose score is out of contention with the best so far (the
-        // refinement's own bound, which is loose unless some run already fits to within the
-        // noise floor) stops: it will not be refined.
         if !coarse_runs.iter().any(|c| c.running) {
             break;
         }
-        let now: Vec<Option<(Pose, f64)>> = coarse_runs
+        let now = coarse_runs
             .par_iter()
             .map(|c| c.running.then(|| finish(c)))
             .collect();
-        let best = coarse_runs
-            .iter()
-            .zip(&now)
-            .filter_map(|(c, n)| c.done.or(*n).map(|d| d.1))
-            .fold(f64::INFINITY, f64::min);
-        let bound = contention(best);
-        for (c, n) in coarse_runs.iter_mut().zip(now) {
-            if let Some(n) = n.filter(|n| n.1 > bound) {
-                c.running = false;
-                c.done = Some(n);
-            }
-        }
+        settle(&mut coarse_runs, now);
     }
     let mut scored: Vec<(Pose, f64)> = coarse_runs
         .iter()
