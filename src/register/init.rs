@@ -8,8 +8,8 @@
 //!    rotation_steps` rotations, which include the sign flips of the aligned PCA frames — except
 //!    the axes along which the model is shorter than the scan (`span_tolerance`);
 //! 2. each candidate's translation puts the centroids together and is then corrected by a few
-//!    trimmed mean-offset steps on a few scan points (the scan sees the near side only, so its
-//!    centroid is biased);
+//!    trimmed mean-offset steps on a few scan points against a sparse sample of the model (the
+//!    scan sees the near side only, so its centroid is biased);
 //! 3. each gets a short, coarse point-to-plane ICP from a few hundred scan points to the model
 //!    (scan → model, since every scanned point must lie on the model while most model points are
 //!    unseen) and is scored by the truncated RMS distance of the scan's points to the model,
@@ -51,6 +51,11 @@ pub struct InitConfig {
     pub offset_points: usize,
     /// Model points (evenly strided) for the coarse ICP.
     pub coarse_model_points: usize,
+    /// Model points (evenly strided) for the mean-offset steps. Their pairs reach out to the
+    /// gate, far beyond the model's point spacing, where a nearest-point query costs about as
+    /// many point visits as the model has points within that distance; a mean over
+    /// `offset_points` pairs needs the model only a few times denser than those scan points.
+    pub offset_model_points: usize,
     /// Iterations of the coarse ICP.
     pub coarse_iterations: usize,
     /// Best candidates refined further.
@@ -79,6 +84,7 @@ impl Default for InitConfig {
             coarse_points: 150,
             offset_points: 50,
             coarse_model_points: 4000,
+            offset_model_points: 500,
             coarse_iterations: 12,
             refine: 4,
             refine_within: 3.0,
@@ -113,6 +119,36 @@ struct CoarseRun {
     /// Once it has stopped (and is not redundant): its pose and score, or its start's when the
     /// start scored better.
     done: Option<(Pose, f64)>,
+}
+
+/// Every `stride`-th model point, with its normal, an index and their spacing.
+struct Decimated {
+    points: Vec<Point3<f64>>,
+    normals: Vec<Vector3<f64>>,
+    index: KdIndex,
+    spacing: f64,
+}
+
+impl Decimated {
+    /// About `n` (at least 100) of the model's points.
+    fn new(model: &ReferenceModel, n: usize) -> Result<Self> {
+        let stride = model.points.len().div_ceil(n.max(100)).max(1);
+        let points: Vec<Point3<f64>> = model.points.iter().step_by(stride).copied().collect();
+        Ok(Decimated {
+            normals: model.normals.iter().step_by(stride).copied().collect(),
+            index: KdIndex::new(&points)?,
+            points,
+            spacing: model.spacing_m * (stride as f64).sqrt(),
+        })
+    }
+
+    fn surfel(&self) -> Surfel<'_> {
+        Surfel {
+            points: &self.points,
+            normals: &self.normals,
+            index: &self.index,
+        }
+    }
 }
 
 /// The chosen initial guess.
@@ -255,21 +291,11 @@ pub fn initial_guess(
     let candidates = rotations.len();
     // Short ICP from scan to model (every scanned point lies on the model) and the score after it.
     // The coarse stage works on a decimated model: smaller tree, faster queries.
-    let stride = model
-        .points
-        .len()
-        .div_ceil(cfg.coarse_model_points.max(100))
-        .max(1);
-    let small_points: Vec<Point3<f64>> = model.points.iter().step_by(stride).copied().collect();
-    let small_normals: Vec<Vector3<f64>> = model.normals.iter().step_by(stride).copied().collect();
-    let small_index = KdIndex::new(&small_points)?;
-    let small = Surfel {
-        points: &small_points,
-        normals: &small_normals,
-        index: &small_index,
-    };
+    let small_model = Decimated::new(model, cfg.coarse_model_points)?;
+    let (small, small_spacing) = (small_model.surfel(), small_model.spacing);
+    let sparse_model = Decimated::new(model, cfg.offset_model_points)?;
+    let (sparse, sparse_spacing) = (sparse_model.surfel(), sparse_model.spacing);
     let full = model.surfel();
-    let small_spacing = model.spacing_m * (stride as f64).sqrt();
     let short = |iterations: usize| IcpConfig {
         max_iterations: iterations.max(1),
         min_gate_m: (0.1 * tau).max(1e-6),
@@ -317,7 +343,7 @@ pub fn initial_guess(
             );
             for _ in 0..3 {
                 // Moving the model by −off (model frame) moves it onto the scan's points.
-                let (_, off) = score(small, small_spacing, &few, &pose, gate);
+                let (_, off) = score(sparse, sparse_spacing, &few, &pose, gate);
                 pose *= Translation3::from(-off);
             }
             CoarseRun {
