@@ -6,8 +6,9 @@
 //! 30 neighbours within 15 mm, ICP with its gate held at 10 mm and at most 50 iterations.
 //!
 //! Measured, per input: `seabed_ransac` (`find_seabed` on the cleaned scan), `cluster`
-//! (`euclidean_clusters` on the object side), `register` (index, normals and `register` with the
-//! global initial guess on the selected object), and the whole `segment` and `check` calls.
+//! (`euclidean_clusters` on the object side), `register` (index, and `register` with the global
+//! initial guess and the normals estimated alongside it, on the selected object), and the whole
+//! `segment` and `check` calls.
 //! Inputs: the synthetic bottle scan `data/scans/bottle/scan.ply` with `data/models/bottle.ply`;
 //! with `UVMS_REAL_DATA` set, also PCL's `milk_cartoon_all_small_clorox.ply` with `milk.ply`
 //! (voxelised like the scene) moved by the peer's perturbation for `--perturb-deg 30
@@ -27,9 +28,8 @@ use nalgebra::{Point3, Vector3};
 use perception_inputs::{Input, bottle, config, milk};
 use std::hint::black_box;
 use std::path::PathBuf;
-use uvms::cloud::normals::estimate_normals;
 use uvms::perception::{CheckOptions, PerceptionConfig, Timings, check, segment};
-use uvms::register::{InitMode, register};
+use uvms::register::{InitMode, ScanNormals, register};
 use uvms::segment::cluster::euclidean_clusters;
 use uvms::segment::seabed::find_seabed;
 use uvms::spatial::KdIndex;
@@ -87,11 +87,14 @@ fn bench_input(c: &mut Criterion, cfg: &PerceptionConfig, input: &Input) {
     g.bench_function("register", |b| {
         b.iter(|| {
             let index = KdIndex::new(black_box(&object)).unwrap();
-            let normals = estimate_normals(&object, &cfg.normals, &camera).unwrap();
+            let normals = ScanNormals::Estimate {
+                config: &cfg.normals,
+                camera,
+            };
             register(
                 &input.model,
                 &object,
-                &normals,
+                normals,
                 &index,
                 &InitMode::Auto,
                 &cfg.register,

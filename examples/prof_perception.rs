@@ -1,15 +1,16 @@
 //! Profiling driver for the perception stages on the benchmark's inputs (the parameters of
 //! `benches/perception.rs`), for instruction counts under callgrind:
-//! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind target/release/examples/prof_perception MODE N SCENE`
-//! (add `--toggle-collect='uvms::register::register'` for one function's share) with MODE `register` (index, normals, registration of the selected object), `check`, `clean`
-//! or `normals`, N repetitions, SCENE `milk` (needs `UVMS_REAL_DATA`) or `bottle`.
+//! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind target/release/examples/prof_perception MODE N
+//! SCENE` (add `--toggle-collect='uvms::register::register'` for one function's share), with MODE
+//! `register` (index, registration of the selected object with its normals), `check`, `clean` or
+//! `normals`; N repetitions; SCENE `milk` (needs `UVMS_REAL_DATA`) or `bottle`.
 
 #[path = "../benches/common/perception_inputs.rs"]
 mod inputs;
 
 use uvms::cloud::normals::estimate_normals;
 use uvms::perception::{CheckOptions, check, clean};
-use uvms::register::{InitMode, register};
+use uvms::register::{InitMode, ScanNormals, register};
 use uvms::spatial::KdIndex;
 
 fn main() {
@@ -46,11 +47,14 @@ fn main() {
         match mode {
             "register" => {
                 let index = KdIndex::new(&object).unwrap();
-                let normals = estimate_normals(&object, &cfg.normals, &camera).unwrap();
+                let normals = ScanNormals::Estimate {
+                    config: &cfg.normals,
+                    camera,
+                };
                 let reg = register(
                     &input.model,
                     &object,
-                    &normals,
+                    normals,
                     &index,
                     &InitMode::Auto,
                     &cfg.register,
