@@ -6,93 +6,33 @@
 //! 30 neighbours within 15 mm, ICP with its gate held at 10 mm and at most 50 iterations.
 //!
 //! Measured, per input: `seabed_ransac` (`find_seabed` on the cleaned scan), `cluster`
-//! (`euclidean_clusters` on the object side), `register` (index, normals and `register` with the
-//! global initial guess on the selected object), and the whole `segment` and `check` calls.
+//! (`euclidean_clusters` on the object side), `register` (index, and `register` with the global
+//! initial guess and the normals estimated alongside it, on the selected object), and the whole
+//! `segment` and `check` calls.
 //! Inputs: the synthetic bottle scan `data/scans/bottle/scan.ply` with `data/models/bottle.ply`;
 //! with `UVMS_REAL_DATA` set, also PCL's `milk_cartoon_all_small_clorox.ply` with `milk.ply`
 //! (voxelised like the scene) moved by the peer's perturbation for `--perturb-deg 30
 //! --perturb-mm 50 --seed 0`, so the true pose is that motion's inverse.
 //!
+//! The inputs and parameters live in `common/perception_inputs.rs`, shared with the profiling
+//! driver `examples/prof_perception.rs`.
+//!
 //! Run: `cargo bench --bench perception`, with the real scene
 //! `UVMS_REAL_DATA=../shared/data/real cargo bench --bench perception`.
 
+#[path = "common/perception_inputs.rs"]
+mod perception_inputs;
+
 use criterion::{Criterion, criterion_group, criterion_main};
-use nalgebra::{Isometry3, Point3, Vector3};
+use nalgebra::{Point3, Vector3};
+use perception_inputs::{Input, bottle, config, milk};
 use std::hint::black_box;
-use std::path::{Path, PathBuf};
-use uvms::cloud::filter::{OutlierConfig, VoxelConfig, voxel_downsample};
-use uvms::cloud::normals::estimate_normals;
-use uvms::frames::{Pose, read_pose_file};
-use uvms::io::ply::read_cloud;
+use std::path::PathBuf;
 use uvms::perception::{CheckOptions, PerceptionConfig, Timings, check, segment};
-use uvms::register::{InitMode, ReferenceModel, register};
+use uvms::register::{InitMode, ScanNormals, register};
 use uvms::segment::cluster::euclidean_clusters;
 use uvms::segment::seabed::find_seabed;
 use uvms::spatial::KdIndex;
-
-/// The peer's parameters; options Open3D does not have keep their defaults.
-fn config() -> PerceptionConfig {
-    let mut cfg = PerceptionConfig::default();
-    cfg.clean.voxel_m = 0.005;
-    cfg.clean.outliers = OutlierConfig {
-        neighbours: 19,
-        std_ratio: 2.0,
-    };
-    cfg.seabed.threshold_m = 0.01;
-    cfg.seabed.max_iterations = 1000;
-    cfg.seabed.confidence = 0.999_999_99;
-    cfg.seabed.score_points = 0;
-    cfg.cluster.tolerance_m = 0.02;
-    cfg.cluster.min_points = 100;
-    cfg.normals.neighbours = 30;
-    cfg.normals.radius_m = 0.015;
-    cfg.register.icp.initial_gate_m = 0.01;
-    cfg.register.icp.min_gate_m = 0.01;
-    cfg.register.icp.max_iterations = 50;
-    cfg.register.evaluation_distance_m = 0.01;
-    // As many model points as the peer's voxelised bottle mesh vertices.
-    cfg.register.mesh_samples = 14_538;
-    cfg
-}
-
-struct Input {
-    name: &'static str,
-    scan: uvms::cloud::PointCloud,
-    model: ReferenceModel,
-    truth: Pose,
-}
-
-fn bottle(cfg: &PerceptionConfig) -> Input {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
-    let scans = data.join("scans/bottle");
-    Input {
-        name: "bottle",
-        scan: read_cloud(&scans.join("scan.ply")).unwrap().0,
-        model: uvms::cli::segment::load_reference(&data.join("models/bottle.ply"), cfg).unwrap(),
-        truth: read_pose_file(&scans.join("truth.json"), "t_scan_reference").unwrap(),
-    }
-}
-
-fn milk(cfg: &PerceptionConfig, dir: &Path) -> Input {
-    // open3d_pipeline.py's perturbation of the reference (30°, 50 mm, seed 0).
-    let moved = Isometry3::new(
-        Vector3::new(0.00801071, -0.04090645, 0.02761324),
-        Vector3::new(0.09886441, -0.10387693, 0.50357828),
-    );
-    let (reference, _) = read_cloud(&dir.join("milk.ply")).unwrap();
-    let mut reference = voxel_downsample(&reference, &VoxelConfig { voxel_m: 0.005 })
-        .unwrap()
-        .cloud;
-    reference.points.iter_mut().for_each(|p| *p = moved * *p);
-    Input {
-        name: "milk",
-        scan: read_cloud(&dir.join("milk_cartoon_all_small_clorox.ply"))
-            .unwrap()
-            .0,
-        model: ReferenceModel::from_cloud(reference, &cfg.normals, "milk.ply").unwrap(),
-        truth: moved.inverse(),
-    }
-}
 
 fn stages(t: &Timings) -> String {
     let each = t.0.iter().map(|s| format!("{} {:.4}", s.stage, s.seconds));
@@ -147,11 +87,14 @@ fn bench_input(c: &mut Criterion, cfg: &PerceptionConfig, input: &Input) {
     g.bench_function("register", |b| {
         b.iter(|| {
             let index = KdIndex::new(black_box(&object)).unwrap();
-            let normals = estimate_normals(&object, &cfg.normals, &camera).unwrap();
+            let normals = ScanNormals::Estimate {
+                config: &cfg.normals,
+                camera,
+            };
             register(
                 &input.model,
                 &object,
-                &normals,
+                normals,
                 &index,
                 &InitMode::Auto,
                 &cfg.register,

@@ -4,8 +4,8 @@
 //! Stages, in order, each configured by its own table of [`PerceptionConfig`] and timed:
 //! `clean` (range gate, voxel down-sampling, statistical outlier removal) → `seabed` (RANSAC plane,
 //! [`crate::segment::seabed`]) → `cluster` (Euclidean clusters of what stands on it) → `select`
-//! (the cluster that matches the reference's size and shape) → `normals` → `register` (global
-//! initial guess, hidden-point removal, ICP) → `surface` (2.5-D Delaunay of the object; no
+//! (the cluster that matches the reference's size and shape) → `register` (global initial guess
+//! and hidden-point removal, alongside the object's normals; ICP) → `surface` (2.5-D Delaunay of the object; no
 //! triangle across a pixel that saw another point of the cleaned scan) →
 //! `accuracy` (the seed's [59] test trajectories; pose errors and ADD-S with ground truth).
 //!
@@ -18,12 +18,12 @@ use crate::cloud::PointCloud;
 use crate::cloud::filter::{
     OutlierConfig, RangeCropConfig, VoxelConfig, crop_range, remove_statistical_outliers, voxel_downsample,
 };
-use crate::cloud::normals::{NormalConfig, estimate_normals};
+use crate::cloud::normals::NormalConfig;
 use crate::cloud::pca::{PrincipalAxes, principal_axes};
 use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
-use crate::register::{InitMode, ReferenceModel, RegisterConfig, Registration, register};
+use crate::register::{InitMode, ReferenceModel, RegisterConfig, Registration, ScanNormals, register};
 use crate::segment::cluster::{Cluster, ClusterConfig, euclidean_clusters};
 use crate::segment::seabed::{SeabedConfig, SeabedFit, find_seabed, object_side};
 use crate::segment::select::{SelectConfig, Selection, select_cluster};
@@ -374,16 +374,18 @@ pub fn check(
     };
     let mut object = object_points;
     let index = KdIndex::new(&object.points)?;
-    let normals = timings.time("normals", || {
-        estimate_normals(&object.points, &cfg.normals, &camera)
-    })?;
-    object.normals = Some(normals);
     let object_shape = principal_axes(&object.points, 0.01)
         .ok_or_else(|| Error::failed("register", "the object has no points"))?;
-    let normals = object.normals.as_deref().unwrap_or(&[]);
+    // The object's normals are estimated inside the registration, alongside its global initial
+    // guess (its timings hold both).
+    let normals = ScanNormals::Estimate {
+        config: &cfg.normals,
+        camera,
+    };
     let registration = timings.time("register", || {
         register(model, &object.points, normals, &index, &opts.init, &cfg.register)
     })?;
+    object.normals = Some(registration.scan_normals.clone());
     let pose = registration.t_scan_reference;
     let scan_surface = timings.time("surface", || {
         // The rest of the cleaned scan: no triangle of the object spans a pixel that saw

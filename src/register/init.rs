@@ -8,15 +8,18 @@
 //!    rotation_steps` rotations, which include the sign flips of the aligned PCA frames — except
 //!    the axes along which the model is shorter than the scan (`span_tolerance`);
 //! 2. each candidate's translation puts the centroids together and is then corrected by a few
-//!    trimmed mean-offset steps on a few scan points (the scan sees the near side only, so its
-//!    centroid is biased);
+//!    trimmed mean-offset steps on a few scan points against a sparse sample of the model (the
+//!    scan sees the near side only, so its centroid is biased);
 //! 3. each gets a short, coarse point-to-plane ICP from a few hundred scan points to the model
 //!    (scan → model, since every scanned point must lie on the model while most model points are
 //!    unseen) and is scored by the truncated RMS distance of the scan's points to the model,
 //!    `√mean(min(d², τ²))`. The coarse ICPs run in lockstep, a few iterations at a time; between
 //!    blocks a run stops when it has come within 0.1 τ of a run ahead of it (it would end where
 //!    that one ends) or when its score is out of contention (step 4's bound) with the best so far —
-//!    a bound that only bites once some run fits to near the noise floor;
+//!    a bound that only bites once some run fits to near the noise floor — or has reached that
+//!    floor, 0.1 τ (the refinement takes it on from there). The last two tests also run before the
+//!    first block, on the start scores: a candidate that already fits to the floor spares every
+//!    other candidate out of contention with it its coarse ICP;
 //! 4. the `refine` best distinct candidates (laying the model's major axis differently, or turned
 //!    by more than 90° — so both end-to-end orientations of a bottle get there) that are still in
 //!    contention (`refine_within`) get a longer ICP on more points and are scored again; the best
@@ -48,6 +51,11 @@ pub struct InitConfig {
     pub offset_points: usize,
     /// Model points (evenly strided) for the coarse ICP.
     pub coarse_model_points: usize,
+    /// Model points (evenly strided) for the mean-offset steps. Their pairs reach out to the
+    /// gate, far beyond the model's point spacing, where a nearest-point query costs about as
+    /// many point visits as the model has points within that distance; a mean over
+    /// `offset_points` pairs needs the model only a few times denser than those scan points.
+    pub offset_model_points: usize,
     /// Iterations of the coarse ICP.
     pub coarse_iterations: usize,
     /// Best candidates refined further.
@@ -76,6 +84,7 @@ impl Default for InitConfig {
             coarse_points: 150,
             offset_points: 50,
             coarse_model_points: 4000,
+            offset_model_points: 500,
             coarse_iterations: 12,
             refine: 4,
             refine_within: 3.0,
@@ -110,6 +119,36 @@ struct CoarseRun {
     /// Once it has stopped (and is not redundant): its pose and score, or its start's when the
     /// start scored better.
     done: Option<(Pose, f64)>,
+}
+
+/// Every `stride`-th model point, with its normal, an index and their spacing.
+struct Decimated {
+    points: Vec<Point3<f64>>,
+    normals: Vec<Vector3<f64>>,
+    index: KdIndex,
+    spacing: f64,
+}
+
+impl Decimated {
+    /// About `n` (at least 100) of the model's points.
+    fn new(model: &ReferenceModel, n: usize) -> Result<Self> {
+        let stride = model.points.len().div_ceil(n.max(100)).max(1);
+        let points: Vec<Point3<f64>> = model.points.iter().step_by(stride).copied().collect();
+        Ok(Decimated {
+            normals: model.normals.iter().step_by(stride).copied().collect(),
+            index: KdIndex::new(&points)?,
+            points,
+            spacing: model.spacing_m * (stride as f64).sqrt(),
+        })
+    }
+
+    fn surfel(&self) -> Surfel<'_> {
+        Surfel {
+            points: &self.points,
+            normals: &self.normals,
+            index: &self.index,
+        }
+    }
 }
 
 /// The chosen initial guess.
@@ -252,21 +291,11 @@ pub fn initial_guess(
     let candidates = rotations.len();
     // Short ICP from scan to model (every scanned point lies on the model) and the score after it.
     // The coarse stage works on a decimated model: smaller tree, faster queries.
-    let stride = model
-        .points
-        .len()
-        .div_ceil(cfg.coarse_model_points.max(100))
-        .max(1);
-    let small_points: Vec<Point3<f64>> = model.points.iter().step_by(stride).copied().collect();
-    let small_normals: Vec<Vector3<f64>> = model.normals.iter().step_by(stride).copied().collect();
-    let small_index = KdIndex::new(&small_points)?;
-    let small = Surfel {
-        points: &small_points,
-        normals: &small_normals,
-        index: &small_index,
-    };
+    let small_model = Decimated::new(model, cfg.coarse_model_points)?;
+    let (small, small_spacing) = (small_model.surfel(), small_model.spacing);
+    let sparse_model = Decimated::new(model, cfg.offset_model_points)?;
+    let (sparse, sparse_spacing) = (sparse_model.surfel(), sparse_model.spacing);
     let full = model.surfel();
-    let small_spacing = model.spacing_m * (stride as f64).sqrt();
     let short = |iterations: usize| IcpConfig {
         max_iterations: iterations.max(1),
         min_gate_m: (0.1 * tau).max(1e-6),
@@ -314,7 +343,7 @@ pub fn initial_guess(
             );
             for _ in 0..3 {
                 // Moving the model by −off (model frame) moves it onto the scan's points.
-                let (_, off) = score(small, small_spacing, &few, &pose, gate);
+                let (_, off) = score(sparse, sparse_spacing, &few, &pose, gate);
                 pose *= Translation3::from(-off);
             }
             CoarseRun {
@@ -348,6 +377,31 @@ pub fn initial_guess(
             c.t_model_scan,
         )
     };
+    // Before every block (the first included, on the start scores): a run whose score is out of
+    // contention with the best so far (the refinement's own bound, which is loose unless some run
+    // already fits to within the noise floor) stops, as it will not be refined; and so does a run
+    // that has reached the noise floor, 0.1 τ: further coarse steps could only reorder it among
+    // scores the noise cannot tell apart, and its refinement starts with its gate at that floor.
+    let floor = 0.1 * tau;
+    let settle = |runs: &mut [CoarseRun], now: Vec<Option<(Pose, f64)>>| {
+        let best = runs
+            .iter()
+            .zip(&now)
+            .filter_map(|(c, n)| c.done.or(*n).map(|d| d.1))
+            .fold(f64::INFINITY, f64::min);
+        let bound = contention(best);
+        for (c, n) in runs.iter_mut().zip(now) {
+            if let Some(n) = n.filter(|n| n.1 > bound || n.1 <= floor) {
+                c.running = false;
+                c.done = Some(n);
+            }
+        }
+    };
+    let starts = coarse_runs
+        .iter()
+        .map(|c| Some((c.start, c.start_score)))
+        .collect();
+    settle(&mut coarse_runs, starts);
     while coarse_runs.iter().any(|c| c.running) {
         coarse_runs.par_iter_mut().filter(|c| c.running).for_each(|c| {
             let run = short(c.left.min(COARSE_BLOCK));
@@ -381,28 +435,14 @@ pub fn initial_guess(
                 coarse_runs[i].redundant = true;
             }
         }
-        // A run still going whose score is out of contention with the best so far (the
-        // refinement's own bound, which is loose unless some run already fits to within the
-        // noise floor) stops: it will not be refined.
         if !coarse_runs.iter().any(|c| c.running) {
             break;
         }
-        let now: Vec<Option<(Pose, f64)>> = coarse_runs
+        let now = coarse_runs
             .par_iter()
             .map(|c| c.running.then(|| finish(c)))
             .collect();
-        let best = coarse_runs
-            .iter()
-            .zip(&now)
-            .filter_map(|(c, n)| c.done.or(*n).map(|d| d.1))
-            .fold(f64::INFINITY, f64::min);
-        let bound = contention(best);
-        for (c, n) in coarse_runs.iter_mut().zip(now) {
-            if let Some(n) = n.filter(|n| n.1 > bound) {
-                c.running = false;
-                c.done = Some(n);
-            }
-        }
+        settle(&mut coarse_runs, now);
     }
     let mut scored: Vec<(Pose, f64)> = coarse_runs
         .iter()

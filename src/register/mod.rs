@@ -104,6 +104,22 @@ impl ReferenceModel {
     }
 }
 
+/// The scanned object's normals for ICP.
+#[derive(Debug, Clone, Copy)]
+pub enum ScanNormals<'a> {
+    /// Given, one per scan point.
+    Given(&'a [Vector3<f64>]),
+    /// Estimated ([`estimate_normals`], oriented towards `camera`) while the global initial guess
+    /// and the first hidden-point removal run: neither needs them, and the hidden-point removal is
+    /// serial, so the two cores share the work.
+    Estimate {
+        /// How.
+        config: &'a NormalConfig,
+        /// The camera's centre (scan frame).
+        camera: Point3<f64>,
+    },
+}
+
 /// Where ICP starts.
 #[derive(Debug, Clone, PartialEq)]
 pub enum InitMode {
@@ -184,12 +200,14 @@ pub struct Registration {
     pub converged: bool,
     /// The last ICP round's outcome.
     pub icp: IcpOutcome,
+    /// The scanned object's unit normals ICP used (given or estimated), one per scan point.
+    pub scan_normals: Vec<Vector3<f64>>,
     /// Wall time of the sub-stages (`init`, `hidden_points`, `icp` per round).
     pub timings: crate::perception::Timings,
 }
 
-/// Registers `model` onto the scanned object `scan` (scan frame; `scan_normals` unit, oriented
-/// or not; `scan_index` over `scan`).
+/// Registers `model` onto the scanned object `scan` (scan frame; its normals unit, oriented or
+/// not, given or estimated here; `scan_index` over `scan`).
 ///
 /// # Errors
 /// [`Error::Input`] for a bad configuration; [`Error::Failed`] (stage `icp`) when ICP finds too
@@ -197,7 +215,7 @@ pub struct Registration {
 pub fn register(
     model: &ReferenceModel,
     scan: &[Point3<f64>],
-    scan_normals: &[Vector3<f64>],
+    scan_normals: ScanNormals<'_>,
     scan_index: &KdIndex,
     init: &InitMode,
     cfg: &RegisterConfig,
@@ -206,15 +224,44 @@ pub fn register(
     if cfg.visibility_rounds == 0 {
         return Err(Error::input("register.visibility_rounds", "must be ≥ 1"));
     }
-    let mut timings = crate::perception::Timings::default();
-    let (initial, init_outcome) = match init {
-        InitMode::Given(p) => (*p, None),
-        InitMode::Auto => {
-            let shape = principal_axes(scan, 0.01).ok_or_else(|| Error::failed("init", "empty scan"))?;
-            let o = timings.time("init", || initial_guess(model, scan, &shape, &cfg.init))?;
-            (o.t_scan_reference, Some(o))
-        }
+    // The initial pose and the model's points visible from it, alongside the scan's normals.
+    let start = || -> Result<_> {
+        let mut timings = crate::perception::Timings::default();
+        let (initial, init_outcome) = match init {
+            InitMode::Given(p) => (*p, None),
+            InitMode::Auto => {
+                let shape = principal_axes(scan, 0.01).ok_or_else(|| Error::failed("init", "empty scan"))?;
+                let o = timings.time("init", || initial_guess(model, scan, &shape, &cfg.init))?;
+                (o.t_scan_reference, Some(o))
+            }
+        };
+        let visible = timings.time("hidden_points", || {
+            visible_source(model, &initial, &cfg.hidden_points)
+        });
+        Ok((initial, init_outcome, visible, timings))
     };
+    let normals = || -> Result<(Vec<Vector3<f64>>, f64)> {
+        let t0 = std::time::Instant::now();
+        let n = match scan_normals {
+            ScanNormals::Given(n) => n.to_vec(),
+            ScanNormals::Estimate { config, camera } => estimate_normals(scan, config, &camera)?,
+        };
+        Ok((n, t0.elapsed().as_secs_f64()))
+    };
+    let (started, normals) = rayon::join(start, normals);
+    let (initial, init_outcome, first_visible, mut timings) = started?;
+    let (scan_normals, normals_s) = normals?;
+    if scan_normals.len() != scan.len() {
+        return Err(Error::input(
+            "register",
+            format!("{} normals for {} scan points", scan_normals.len(), scan.len()),
+        ));
+    }
+    timings.0.push(crate::perception::StageTime {
+        stage: "normals".to_string(),
+        seconds: normals_s,
+    });
+    let mut first_visible = Some(first_visible);
     let size = model.shape.spans.max();
     let mut gate = if cfg.icp.initial_gate_m > 0.0 {
         cfg.icp.initial_gate_m
@@ -235,12 +282,15 @@ pub fn register(
             break;
         }
         culled_from = Some(pose);
-        source = timings.time("hidden_points", || {
-            visible_source(model, &pose, &cfg.hidden_points)
-        });
+        source = match first_visible.take() {
+            Some(v) => v,
+            None => timings.time("hidden_points", || {
+                visible_source(model, &pose, &cfg.hidden_points)
+            }),
+        };
         let target = Surfel {
             points: scan,
-            normals: scan_normals,
+            normals: &scan_normals,
             index: scan_index,
         };
         let reverse = cfg.symmetric.then(|| model.surfel());
@@ -294,6 +344,7 @@ pub fn register(
         iterations,
         converged: true,
         icp,
+        scan_normals,
         timings,
     })
 }
@@ -400,7 +451,7 @@ pub(crate) mod tests {
             let r = register(
                 &model,
                 &scan,
-                &normals,
+                ScanNormals::Given(&normals),
                 &idx,
                 &InitMode::Auto,
                 &RegisterConfig::default(),
@@ -416,6 +467,24 @@ pub(crate) mod tests {
                 "case {k}: axis {axis_deg}° {m} m, {r:?}"
             );
             assert!(r.converged && r.fitness > 0.7, "{r:?}");
+            if k == 0 {
+                // Estimated alongside the initial guess, the same normals and the same result.
+                let estimated = ScanNormals::Estimate {
+                    config: &NormalConfig::default(),
+                    camera: Point3::origin(),
+                };
+                let e = register(
+                    &model,
+                    &scan,
+                    estimated,
+                    &idx,
+                    &InitMode::Auto,
+                    &RegisterConfig::default(),
+                )
+                .unwrap();
+                assert_eq!(e.scan_normals, normals);
+                assert_eq!(e.t_scan_reference, r.t_scan_reference);
+            }
         }
     }
 }
