@@ -25,14 +25,13 @@ mod perception_inputs;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Point3, Vector3};
-use perception_inputs::{Input, bottle, config, milk};
+use perception_inputs::{Input, bottle, config, milk, register_object};
 use std::hint::black_box;
 use std::path::PathBuf;
 use uvms::perception::{CheckOptions, PerceptionConfig, Timings, check, segment};
-use uvms::register::{InitMode, ScanNormals, register};
+
 use uvms::segment::cluster::euclidean_clusters;
 use uvms::segment::seabed::find_seabed;
-use uvms::spatial::KdIndex;
 
 fn stages(t: &Timings) -> String {
     let each = t.0.iter().map(|s| format!("{} {:.4}", s.stage, s.seconds));
@@ -75,7 +74,6 @@ fn bench_input(c: &mut Criterion, cfg: &PerceptionConfig, input: &Input) {
     let cleaned = &seg.cloud.points;
     let side: Vec<Point3<f64>> = seg.object_side.iter().map(|&i| cleaned[i]).collect();
     let object = seg.object_cloud().points;
-    let camera = cfg.view.camera();
     let mut g = c.benchmark_group(format!("perception_{}", input.name));
     g.sample_size(10);
     g.bench_function("seabed_ransac", |b| {
@@ -85,22 +83,7 @@ fn bench_input(c: &mut Criterion, cfg: &PerceptionConfig, input: &Input) {
         b.iter(|| euclidean_clusters(black_box(&side), &cfg.cluster).unwrap())
     });
     g.bench_function("register", |b| {
-        b.iter(|| {
-            let index = KdIndex::new(black_box(&object)).unwrap();
-            let normals = ScanNormals::Estimate {
-                config: &cfg.normals,
-                camera,
-            };
-            register(
-                &input.model,
-                &object,
-                normals,
-                &index,
-                &InitMode::Auto,
-                &cfg.register,
-            )
-            .unwrap()
-        })
+        b.iter(|| register_object(input, black_box(&object), cfg))
     });
     let spans = input.model.shape.spans;
     g.bench_function("segment", |b| {

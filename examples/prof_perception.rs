@@ -10,8 +10,6 @@ mod inputs;
 
 use uvms::cloud::normals::estimate_normals;
 use uvms::perception::{CheckOptions, check, clean};
-use uvms::register::{InitMode, ScanNormals, register};
-use uvms::spatial::KdIndex;
 
 fn main() {
     // The main thread is one of rayon's workers, so that callgrind's `--toggle-collect` on a
@@ -46,21 +44,7 @@ fn main() {
     for _ in 0..n {
         match mode {
             "register" => {
-                let index = KdIndex::new(&object).unwrap();
-                let normals = ScanNormals::Estimate {
-                    config: &cfg.normals,
-                    camera,
-                };
-                let reg = register(
-                    &input.model,
-                    &object,
-                    normals,
-                    &index,
-                    &InitMode::Auto,
-                    &cfg.register,
-                )
-                .unwrap();
-                std::hint::black_box(reg);
+                std::hint::black_box(inputs::register_object(&input, &object, &cfg));
             }
             "normals" => {
                 std::hint::black_box(estimate_normals(&object, &cfg.normals, &camera).unwrap());

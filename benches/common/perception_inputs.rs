@@ -8,7 +8,8 @@ use uvms::cloud::filter::{OutlierConfig, VoxelConfig, voxel_downsample};
 use uvms::frames::{Pose, read_pose_file};
 use uvms::io::ply::read_cloud;
 use uvms::perception::PerceptionConfig;
-use uvms::register::ReferenceModel;
+use uvms::register::{InitMode, ReferenceModel, Registration, ScanNormals, register};
+use uvms::spatial::KdIndex;
 
 /// The peer's parameters; options Open3D does not have keep their defaults.
 pub fn config() -> PerceptionConfig {
@@ -91,4 +92,28 @@ pub fn load(scene: &str, cfg: &PerceptionConfig) -> Input {
         }
         other => panic!("unknown scene {other}"),
     }
+}
+
+/// What the benchmark's `register` times: the selected object's index, and the registration of
+/// the reference onto it with the object's normals estimated on the way.
+#[allow(dead_code)]
+pub fn register_object(
+    input: &Input,
+    object: &[nalgebra::Point3<f64>],
+    cfg: &PerceptionConfig,
+) -> Registration {
+    let index = KdIndex::new(object).unwrap();
+    let normals = ScanNormals::Estimate {
+        config: &cfg.normals,
+        camera: cfg.view.camera(),
+    };
+    register(
+        &input.model,
+        object,
+        normals,
+        &index,
+        &InitMode::Auto,
+        &cfg.register,
+    )
+    .unwrap()
 }
