@@ -5,8 +5,8 @@
 //! `clean` (range gate, voxel down-sampling, statistical outlier removal) → `seabed` (RANSAC plane,
 //! [`crate::segment::seabed`]) → `cluster` (Euclidean clusters of what stands on it) → `select`
 //! (the cluster that matches the reference's size and shape) → `register` (global initial guess
-//! and hidden-point removal, alongside the object's normals; ICP) → `surface` (2.5-D Delaunay of the object; no
-//! triangle across a pixel that saw another point of the cleaned scan) →
+//! and hidden-point removal, alongside the object's normals; ICP) → `surface` (2.5-D Delaunay of
+//! the object; no triangle across a pixel that saw another point of the cleaned scan) →
 //! `accuracy` (the seed's [59] test trajectories; pose errors and ADD-S with ground truth).
 //!
 //! Frames: everything is in the scan frame `S` (camera at `view.camera_m`, the origin for a
