@@ -408,14 +408,8 @@ impl Arm {
             &mut bias,
             None,
         );
-        let mut h = Matrix6::zeros();
-        let mut unused = Matrix6::zeros();
-        self.crba(&xs, &xs.x[0], &mut h, &mut unused);
-        for i in 0..N_JOINTS {
-            h[(i, i)] += self.links[i].armature;
-        }
         let rhs = tau - bias - self.friction(qd, Some(self.coulomb_smoothing));
-        Cholesky::new(h).map(|c| c.solve(&rhs))
+        Cholesky::new(self.mass_matrix(q)).map(|c| c.solve(&rhs))
     }
 }
 
