@@ -240,27 +240,24 @@ pub fn register(
         });
         Ok((initial, init_outcome, visible, timings))
     };
-    let normals = || -> Result<(Vec<Vector3<f64>>, f64)> {
-        let t0 = std::time::Instant::now();
-        let n = match scan_normals {
-            ScanNormals::Given(n) => n.to_vec(),
-            ScanNormals::Estimate { config, camera } => estimate_normals(scan, config, &camera)?,
-        };
-        Ok((n, t0.elapsed().as_secs_f64()))
+    let normals = || {
+        let mut timings = crate::perception::Timings::default();
+        let n = timings.time("normals", || match scan_normals {
+            ScanNormals::Given(n) => Ok(n.to_vec()),
+            ScanNormals::Estimate { config, camera } => estimate_normals(scan, config, &camera),
+        });
+        (n, timings)
     };
-    let (started, normals) = rayon::join(start, normals);
+    let (started, (normals, normals_time)) = rayon::join(start, normals);
     let (initial, init_outcome, first_visible, mut timings) = started?;
-    let (scan_normals, normals_s) = normals?;
+    let scan_normals = normals?;
+    timings.0.extend(normals_time.0);
     if scan_normals.len() != scan.len() {
         return Err(Error::input(
             "register",
             format!("{} normals for {} scan points", scan_normals.len(), scan.len()),
         ));
     }
-    timings.0.push(crate::perception::StageTime {
-        stage: "normals".to_string(),
-        seconds: normals_s,
-    });
     let mut first_visible = Some(first_visible);
     let size = model.shape.spans.max();
     let mut gate = if cfg.icp.initial_gate_m > 0.0 {
