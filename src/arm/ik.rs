@@ -193,6 +193,11 @@ impl Arm {
         let farther = |best: &Option<(f64, usize, JointVector)>, partial: f64| {
             partial.is_infinite() || best.is_some_and(|(d, _, _)| partial > d * (1.0 + 1e-9))
         };
+        // A solution `d` away, `rank` in the analytic order, is nearer than the best so far (of
+        // two equally near, the earlier in that order).
+        let beats = |best: &Option<(f64, usize, JointVector)>, d: f64, rank: usize| {
+            best.is_none_or(|(bd, br, _)| (d, rank) < (bd, br))
+        };
         // The pairs in groups: each shoulder solution's (nearest in q1 first) for the nearest
         // alone, all of them at once otherwise.
         let groups: &[(usize, usize, usize)] = if nearest_only {
@@ -308,16 +313,14 @@ impl Arm {
                 if may_beat_first && !farther(&best, bound) {
                     candidates[1] = candidate(raw_wrist(wrist(-side)), other_rank);
                     if let [Some(x), Some(y)] = &candidates
-                        && (y.0 < x.0 || (y.0 == x.0 && y.1 < x.1))
+                        && (y.0, y.1) < (x.0, x.1)
                     {
                         candidates.swap(0, 1);
                     }
                 }
                 // Nearest first: once one passes the check the other is not looked at.
                 for (d, rank, q, w) in candidates.into_iter().flatten() {
-                    if best.is_none_or(|(bd, br, _)| d < bd || (d == bd && rank < br))
-                        && self.wrist_matches(&r03, &p03, &w, t_base_tool)
-                    {
+                    if beats(&best, d, rank) && self.wrist_matches(&r03, &p03, &w, t_base_tool) {
                         best = Some((d, rank, q));
                     }
                 }
@@ -325,7 +328,7 @@ impl Arm {
                 if !may_beat_first
                     && !farther(&best, bound)
                     && let Some((d, rank, q, w)) = candidate(raw_wrist(wrist(-side)), other_rank)
-                    && best.is_none_or(|(bd, br, _)| d < bd || (d == bd && rank < br))
+                    && beats(&best, d, rank)
                     && self.wrist_matches(&r03, &p03, &w, t_base_tool)
                 {
                     best = Some((d, rank, q));
