@@ -407,14 +407,18 @@ pub fn map_knn_within<T: Send>(
                     for bound in [hint.min(cap), cap] {
                         best.clear();
                         for &(a, b) in &block {
+                            // Branch-free (whether a point passes is a coin toss): every point
+                            // is written, and the end moves past it when it passes.
+                            let mut m = best.items.len();
+                            best.items.resize(m + b - a, (0, 0));
                             for t in a..b {
                                 let p = &grid.sorted[t];
                                 let d2 =
                                     (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2);
-                                if d2 <= bound && t != sp {
-                                    best.items.push((d2.to_bits(), grid.order[t]));
-                                }
+                                best.items[m] = (d2.to_bits(), grid.order[t]);
+                                m += usize::from(d2 <= bound && t != sp);
                             }
+                            best.items.truncate(m);
                         }
                         if best.items.len() >= k || bound == cap {
                             break;
