@@ -406,15 +406,51 @@ pub fn object_side(points: &[Point3<f64>], fit: &SeabedFit, cfg: &SeabedConfig) 
         .collect()
 }
 
-/// Convex hull of 2-D points, counter-clockwise (Andrew's monotone chain).
+/// Convex hull of 2-D points, counter-clockwise (Andrew's monotone chain), after dropping the
+/// points well inside the polygon of the extremes along x, y and the diagonals (Akl–Toussaint):
+/// most of a seabed's points, which the chain would otherwise sort.
 fn convex_hull_2d(mut p: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
+    if p.len() > 64 {
+        let extreme = |f: fn(&[f64; 2]) -> f64| {
+            let by = |a: &&[f64; 2], b: &&[f64; 2]| f(a).total_cmp(&f(b));
+            [
+                *p.iter().min_by(by).unwrap_or(&p[0]),
+                *p.iter().max_by(by).unwrap_or(&p[0]),
+            ]
+        };
+        let poly = monotone_chain(
+            [
+                extreme(|q| q[0]),
+                extreme(|q| q[1]),
+                extreme(|q| q[0] + q[1]),
+                extreme(|q| q[0] - q[1]),
+            ]
+            .concat(),
+        );
+        if poly.len() >= 3 {
+            // Inside by more than round-off: the chain decides the points near the polygon's
+            // edges (a vertex of the hull may lie on one).
+            let scale = p.iter().fold(0.0f64, |m, q| m.max(q[0].abs()).max(q[1].abs()));
+            let tol = 1e-9 * scale * scale;
+            let edges: Vec<_> = poly.iter().zip(poly.iter().cycle().skip(1)).collect();
+            p.retain(|&q| !edges.iter().all(|&(&a, &b)| cross(a, b, q) > tol));
+        }
+    }
+    monotone_chain(p)
+}
+
+/// `(a − o) × (b − o)`: positive when `o, a, b` turn counter-clockwise.
+fn cross(o: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+}
+
+/// Andrew's monotone chain: the hull's vertices, counter-clockwise, from the lowest x (then y).
+fn monotone_chain(mut p: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
     p.par_sort_unstable_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     p.dedup();
     if p.len() < 3 {
         return p;
     }
-    let cross =
-        |o: [f64; 2], a: [f64; 2], b: [f64; 2]| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
     let mut hull: Vec<[f64; 2]> = Vec::with_capacity(64);
     for pass in 0..2 {
         let start = hull.len();
@@ -434,15 +470,23 @@ fn convex_hull_2d(mut p: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
     hull
 }
 
-/// True if `q` is inside (or on) the counter-clockwise convex polygon `hull` (≥ 3 vertices).
+/// True if `q` is inside (or on) the counter-clockwise convex polygon `hull` (≥ 3 vertices):
+/// the wedge from `hull[0]` holding `q` by binary search, then that wedge's outer edge.
 fn inside_convex(hull: &[[f64; 2]], q: [f64; 2]) -> bool {
-    if hull.len() < 3 {
+    let n = hull.len();
+    if n < 3 || cross(hull[0], hull[1], q) < 0.0 || cross(hull[0], hull[n - 1], q) > 0.0 {
         return false;
     }
-    (0..hull.len()).all(|i| {
-        let (a, b) = (hull[i], hull[(i + 1) % hull.len()]);
-        (b[0] - a[0]) * (q[1] - a[1]) - (b[1] - a[1]) * (q[0] - a[0]) >= 0.0
-    })
+    let (mut lo, mut hi) = (1, n - 1);
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if cross(hull[0], hull[mid], q) >= 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    cross(hull[lo], hull[hi], q) >= 0.0
 }
 
 fn inliers_of(points: &[Point3<f64>], plane: &Plane, threshold: f64) -> Vec<usize> {
@@ -632,6 +676,45 @@ mod tests {
         ]);
         assert_eq!(h.len(), 4);
         assert!(inside_convex(&h, [0.5, 0.5]) && !inside_convex(&h, [1.5, 0.5]));
+    }
+
+    /// The extremes' pre-filter leaves the hull as the chain finds it over all the points:
+    /// a disc, a square's grid (collinear points on every edge, duplicates) and a thin sliver.
+    #[test]
+    fn prefiltered_hull_equals_the_chains() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let disc: Vec<[f64; 2]> = (0..5000)
+            .map(|_| {
+                let (r, t) = (rng.random::<f64>().sqrt(), rng.random_range(0.0..2.0 * PI));
+                [3.0 + r * t.cos(), -2.0 + 0.5 * r * t.sin()]
+            })
+            .collect();
+        let grid: Vec<[f64; 2]> = (0..2000)
+            .map(|i| [f64::from(i % 40) * 0.1, f64::from((i / 40) % 40) * 0.1])
+            .collect();
+        let sliver: Vec<[f64; 2]> = (0..500)
+            .map(|_| {
+                let x = rng.random_range(-1.0..1.0);
+                [x, 1e-6 * rng.random_range(-1.0..1.0) + 0.3 * x]
+            })
+            .collect();
+        for p in [disc, grid, sliver] {
+            let h = convex_hull_2d(p.clone());
+            assert_eq!(h, monotone_chain(p.clone()));
+            assert!(h.len() >= 3);
+            // The wedge search answers as every edge's side does, on the points, the hull's
+            // vertices and points around it.
+            let (lo, hi) = p.iter().fold(([f64::MAX; 2], [f64::MIN; 2]), |(l, u), q| {
+                ([l[0].min(q[0]), l[1].min(q[1])], [u[0].max(q[0]), u[1].max(q[1])])
+            });
+            let around = (0..2000).map(|_| {
+                [0, 1].map(|k| rng.random_range(lo[k] - 0.2 * (hi[k] - lo[k])..hi[k] + 0.2 * (hi[k] - lo[k])))
+            });
+            for q in p.iter().copied().chain(h.iter().copied()).chain(around) {
+                let every_edge = (0..h.len()).all(|i| cross(h[i], h[(i + 1) % h.len()], q) >= 0.0);
+                assert_eq!(inside_convex(&h, q), every_edge, "{q:?}");
+            }
+        }
     }
 
     #[test]
