@@ -461,7 +461,9 @@ impl Arm {
             )
             .norm();
         let cos = 0.5 * (e.trace() - 1.0);
-        sin.atan2(cos) < CHECK_TOL
+        // The angle is at most sin/cos for cos > 0: within half the tolerance it passes without
+        // the arc tangent (whose answer would be the same).
+        (cos > 0.0 && sin < 0.5 * CHECK_TOL * cos) || sin.atan2(cos) < CHECK_TOL
     }
 }
 
