@@ -179,7 +179,7 @@ impl Multibody {
             .into_inner();
         let r_6_world =
             xs.x.iter()
-                .fold(self.arm.mount.rot * r_body_world, |acc, x| x.rot * acc);
+                .fold(self.arm.mount().rot * r_body_world, |acc, x| x.rot * acc);
         self.arm
             .tool_wrench_in_flange(&(r_6_world * f.lin), &(r_6_world * f.ang))
     }
@@ -205,17 +205,17 @@ impl Multibody {
         let nu = Motion::from_vector6(&s.nu);
         let nu_dot = Motion::from_vector6(&zeta_dot.fixed_rows::<6>(0).into_owned());
         let base = BaseMotion {
-            velocity: self.arm.mount.motion(&nu),
-            acceleration: self.arm.mount.motion(&nu_dot),
-            gravity: self.arm.mount.rot * k.g_body,
-            current: self.arm.mount.rot * k.c_body,
+            velocity: self.arm.mount().motion(&nu),
+            acceleration: self.arm.mount().motion(&nu_dot),
+            gravity: self.arm.mount().rot * k.g_body,
+            current: self.arm.mount().rot * k.c_body,
         };
         let f6 = self.tool_wrench(s, &k.xs, f_env_on_tool);
         let mut tau = JointVector::zeros();
         let qdd = zeta_dot.fixed_rows::<N_JOINTS>(6).into_owned();
         let f1 = self.arm.rnea(&k.xs, &s.qd, &qdd, &base, &f6, &mut tau, motion);
         let on_vehicle = self.vehicle.wrench(&nu, &nu_dot, &k.g_body, &k.c_body)
-            + self.arm.mount.force_inv(&k.xs.x[0].force_inv(&f1));
+            + self.arm.mount().force_inv(&k.xs.x[0].force_inv(&f1));
         let mut out = GenVector::zeros();
         out.fixed_rows_mut::<6>(0).copy_from(&on_vehicle.to_vector6());
         out.fixed_rows_mut::<N_JOINTS>(6).copy_from(&tau);
@@ -232,7 +232,7 @@ impl Multibody {
         let mut hqq = Matrix6::zeros();
         let mut cols = Matrix6::zeros();
         // The links' coupling and composite straight in `C`: the mount composed with `x[0]`.
-        let root = self.arm.mount.then(&xs.x[0]);
+        let root = self.arm.mount().then(&xs.x[0]);
         let arm_in_body = self.arm.crba(xs, &root, &mut hqq, &mut cols);
         let hvv: Inertia = self.vehicle.total + arm_in_body;
         let mut h = GenMatrix::zeros();
@@ -402,7 +402,7 @@ impl Multibody {
         };
         let nu = Motion::from_vector6(&s.nu);
         let base = BaseMotion {
-            velocity: self.arm.mount.motion(&nu),
+            velocity: self.arm.mount().motion(&nu),
             ..Default::default()
         };
         let mut unused = JointVector::zeros();
@@ -417,7 +417,7 @@ impl Multibody {
         );
         let x_world_body = Xform::from_pose(&s.t_world_body);
         let mut total = x_world_body.force_inv(&self.vehicle.total.mul(&nu));
-        let mut x = x_world_body.then(&self.arm.mount);
+        let mut x = x_world_body.then(self.arm.mount());
         for i in 0..N_JOINTS {
             x = x.then(&k.xs.x[i]);
             total += x.force_inv(&self.arm.links[i].body.total.mul(&lm.v[i]));
@@ -429,7 +429,7 @@ impl Multibody {
     fn for_each_body_pose(&self, s: &State, mut f: impl FnMut(&Body, &Isometry3<f64>)) {
         f(&self.vehicle, &s.t_world_body);
         let chain = self.arm.chain(&s.q);
-        let t_world_base = s.t_world_body * self.arm.t_body_base;
+        let t_world_base = s.t_world_body * self.arm.t_body_base();
         for i in 0..N_JOINTS {
             let t = t_world_base * crate::arm::kinematics::isometry(&chain.rot[i], &chain.pos[i]);
             f(&self.arm.links[i].body, &t);
@@ -438,7 +438,7 @@ impl Multibody {
 
     /// Pose of the tool frame `G` in the world.
     pub fn t_world_tool(&self, s: &State) -> Isometry3<f64> {
-        s.t_world_body * self.arm.t_body_base * self.arm.t_base_tool(&s.q)
+        s.t_world_body * self.arm.t_body_base() * self.arm.t_base_tool(&s.q)
     }
 
     /// Velocity of the tool point and angular velocity of the tool, world axes: `[v; ω]`.
@@ -451,20 +451,20 @@ impl Multibody {
     pub fn tool_kinematics(&self, s: &State) -> (Isometry3<f64>, Vector6<f64>, Matrix6<f64>) {
         let chain = self.arm.chain(&s.q);
         let t_base_tool = chain.t_base_flange() * self.arm.t_flange_tool;
-        let t_body_tool = self.arm.t_body_base * t_base_tool;
+        let t_body_tool = self.arm.t_body_base() * t_base_tool;
         // In C: the vehicle's motion carried to the tool point plus the arm's Jacobian.
         let p = t_body_tool.translation.vector;
         let w = Vector3::new(s.nu[3], s.nu[4], s.nu[5]);
         let v_vehicle = Vector3::new(s.nu[0], s.nu[1], s.nu[2]) + w.cross(&p);
         let jacobian = chain.jacobian_at(&self.arm.t_flange_tool.translation.vector);
         let j = jacobian * s.qd;
-        let r_b0 = self.arm.t_body_base.rotation;
+        let r_b0 = self.arm.t_body_base().rotation;
         let v = v_vehicle + r_b0 * Vector3::new(j[0], j[1], j[2]);
         let om = w + r_b0 * Vector3::new(j[3], j[4], j[5]);
         let r = s.t_world_body.rotation;
         let (v, om) = (r * v, r * om);
         (
-            s.t_world_body * self.arm.t_body_base * t_base_tool,
+            s.t_world_body * self.arm.t_body_base() * t_base_tool,
             Vector6::new(v.x, v.y, v.z, om.x, om.y, om.z),
             jacobian,
         )
@@ -481,7 +481,7 @@ impl Multibody {
         arm_jacobian: &Matrix6<f64>,
     ) -> SMatrix<f64, 3, NDOF> {
         let r = s.t_world_body.rotation.to_rotation_matrix().into_inner();
-        let r_w0 = (s.t_world_body.rotation * self.arm.t_body_base.rotation)
+        let r_w0 = (s.t_world_body.rotation * self.arm.t_body_base().rotation)
             .to_rotation_matrix()
             .into_inner();
         // ω × p in world axes: −[p_w]× R ω_C, p_w the tool point from C's origin.

@@ -355,7 +355,7 @@ fn floating_dynamics_inverts_the_floating_rnea_and_matches_the_arm_rnea() {
         9.81,
         &Vector3::zeros(),
     );
-    let r_base_world = (s.t_world_body * sys.arm.t_body_base).rotation.inverse();
+    let r_base_world = (s.t_world_body * sys.arm.t_body_base()).rotation.inverse();
     let tool_base = Force::new(r_base_world * tool.lin, r_base_world * tool.ang);
     let qdd = JointVector::from_fn(|i, _| zd[6 + i]);
     let id = sys

@@ -61,10 +61,10 @@ impl BaseMotion {
         g: f64,
         current_world: &Vector3<f64>,
     ) -> Self {
-        let to_base = |w: Vector3<f64>| arm.mount.rot * (r_world_body.inverse() * w);
+        let to_base = |w: Vector3<f64>| arm.mount().rot * (r_world_body.inverse() * w);
         BaseMotion {
-            velocity: arm.mount.motion(&Motion::from_vector6(nu)),
-            acceleration: arm.mount.motion(&Motion::from_vector6(nu_dot)),
+            velocity: arm.mount().motion(&Motion::from_vector6(nu)),
+            acceleration: arm.mount().motion(&Motion::from_vector6(nu_dot)),
             gravity: to_base(Vector3::new(0.0, 0.0, g)),
             current: to_base(*current_world),
         }
@@ -185,7 +185,7 @@ impl Arm {
         let mut a = *base_acceleration;
         for i in 0..N_JOINTS {
             let link = &self.links[i];
-            a = vt.xs.x[i].motion(&a) + link.axis * qdd[i];
+            a = vt.xs.x[i].motion(&a) + link.axis() * qdd[i];
             forces[i] += link.body.total.mul(&a);
         }
         let f6 = self.flange_wrench(&vt.xs, f_env_on_tool);
@@ -288,9 +288,9 @@ impl Arm {
         for i in 0..N_JOINTS {
             let link = &self.links[i];
             let x = &xs.x[i];
-            let vj = link.axis * qd[i];
+            let vj = link.axis() * qd[i];
             v = x.motion(&v) + vj;
-            a = x.motion(&a) + link.axis * qdd[i] + v.cross(&vj);
+            a = x.motion(&a) + link.axis() * qdd[i] + v.cross(&vj);
             g = x.rot * g;
             c = x.rot * c;
             forces[i] = link.body.wrench(&v, &a, &g, &c);
@@ -314,7 +314,7 @@ impl Arm {
     ) -> Force {
         forces[N_JOINTS - 1] -= f6;
         for i in (0..N_JOINTS).rev() {
-            tau[i] = self.links[i].axis.dot(&forces[i]);
+            tau[i] = self.links[i].axis().dot(&forces[i]);
             if i > 0 {
                 let up = xs.x[i].force_inv(&forces[i]);
                 forces[i - 1] += up;
@@ -349,7 +349,7 @@ impl Arm {
             if i > 0 {
                 x = x.then(&xs.x[i]);
             }
-            axes[i] = x.motion_inv(&self.links[i].axis);
+            axes[i] = x.motion_inv(&self.links[i].axis());
             ic[i] = x.inertia_inv(&self.links[i].body.total);
         }
         for i in (1..N_JOINTS).rev() {

@@ -106,8 +106,8 @@ impl Arm {
             ));
         }
         let l = &self.links;
-        let dh = |i: usize| l[i].dh;
-        let off = |i: usize| l[i].dh.theta_offset;
+        let dh = |i: usize| *l[i].dh();
+        let off = |i: usize| l[i].dh().theta_offset;
         let t06 = t_base_tool * self.t_flange_tool.inverse();
         let r06 = t06.rotation.to_rotation_matrix().into_inner();
         // Wrist centre o5 = o6 − d6 z5 − a6 x6, with z5 = R06 Rx(−α6) e_z.
@@ -366,13 +366,13 @@ impl Arm {
         let ok = want_alpha
             .iter()
             .enumerate()
-            .all(|(i, a)| (l[i].dh.alpha - a).abs() < STRUCTURE_TOL)
-            && l[0].dh.a.abs() < STRUCTURE_TOL
-            && l[3].dh.a.abs() < STRUCTURE_TOL
-            && l[4].dh.a.abs() < STRUCTURE_TOL
-            && l[4].dh.d.abs() < STRUCTURE_TOL
-            && l[1].dh.a.abs() > STRUCTURE_TOL
-            && l[2].dh.a.hypot(l[3].dh.d) > STRUCTURE_TOL;
+            .all(|(i, a)| (l[i].dh().alpha - a).abs() < STRUCTURE_TOL)
+            && l[0].dh().a.abs() < STRUCTURE_TOL
+            && l[3].dh().a.abs() < STRUCTURE_TOL
+            && l[4].dh().a.abs() < STRUCTURE_TOL
+            && l[4].dh().d.abs() < STRUCTURE_TOL
+            && l[1].dh().a.abs() > STRUCTURE_TOL
+            && l[2].dh().a.hypot(l[3].dh().d) > STRUCTURE_TOL;
         if ok {
             Ok(())
         } else {
@@ -617,7 +617,7 @@ mod tests {
                 0 => random_q(&arm, &mut rng),
                 1 => q + near,
                 _ => {
-                    let o = |i: usize| arm.links[i].dh.theta_offset;
+                    let o = |i: usize| arm.links[i].dh().theta_offset;
                     let mut flipped = q;
                     flipped[3] += PI;
                     flipped[4] = -(q[4] + o(4)) - o(4);
@@ -646,7 +646,11 @@ mod tests {
     #[test]
     fn non_puma_arm_is_refused() {
         let mut arm = arm();
-        arm.links[3].dh.a = 0.1;
+        let dh = crate::model::Dh {
+            a: 0.1,
+            ..*arm.links[3].dh()
+        };
+        arm.links[3].set_dh(dh);
         assert_eq!(
             arm.ik(&Isometry3::identity(), &JointVector::zeros())
                 .unwrap_err()

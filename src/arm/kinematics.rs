@@ -152,6 +152,30 @@ mod tests {
         }
     }
 
+    /// New DH parameters and a new mount set on a built arm move its kinematics, joint axes and
+    /// mount transforms as an arm built with them.
+    #[test]
+    fn set_dh_and_mount_equal_building_with_them() {
+        let mut m = crate::model::UvmsModel::default();
+        let mut arm = arm();
+        let dh = crate::model::Dh {
+            alpha: 0.3,
+            a: 0.05,
+            ..*arm.links[3].dh()
+        };
+        arm.links[3].set_dh(dh);
+        m.arm.links[3].dh = dh;
+        let rotation = nalgebra::Rotation3::from_euler_angles(0.1, -0.2, 0.3);
+        let position = nalgebra::Vector3::new(0.2, -0.1, 0.4);
+        arm.set_mount(&rotation, &position);
+        m.arm.mount_rotation = rotation.into_inner().transpose().into();
+        m.arm.mount_position = position.into();
+        let built = Arm::new(&m.arm, &m.environment).unwrap();
+        assert_eq!(arm, built);
+        let q = JointVector::new(0.3, 0.9, -2.1, 0.4, 0.7, -0.5);
+        assert_eq!(arm.t_base_tool(&q), built.t_base_tool(&q));
+    }
+
     #[test]
     fn hanging_arm_at_zero_reaches_below_the_mount() {
         // Mount R = I (base z down): at q = 0 the PUMA's forearm (d4 along z3 = +z0) points

@@ -18,7 +18,7 @@ use crate::body::{Body, CylinderDrag, Drag};
 use crate::error::Result;
 use crate::model::{self, ArmModel, Dh, Environment, N_JOINTS};
 use crate::spatial_algebra::{Inertia, Motion, Xform};
-use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6};
 
 pub use dynamics::{BaseMotion, InverseDynamics};
 pub use ik::IkSolutions;
@@ -29,14 +29,14 @@ pub type JointVector = Vector6<f64>;
 /// One link with its joint and drive, ready for the algorithms.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Link {
-    /// DH parameters of the joint.
-    pub dh: Dh,
+    /// DH parameters of the joint ([`Link::dh`]; set with [`Link::set_dh`], which keeps what is
+    /// derived from them in step).
+    dh: Dh,
     /// `sin α`, `cos α`.
     sin_alpha: f64,
     cos_alpha: f64,
-    /// The joint's motion subspace in link coordinates: joint `i` turns about `z_{i−1}`, which in
-    /// frame `i` is `(0, sin α, cos α)` through `o_{i−1}`; so `S = [0, a cos α, −a sin α, 0, sin α, cos α]`.
-    pub axis: Motion,
+    /// The joint's motion subspace ([`Link::axis`]).
+    axis: Motion,
     /// The link as a body of the multibody (in its DH frame).
     pub body: Body,
     /// Rotor inertia on the link side `G² Jm`, kg·m².
@@ -52,6 +52,30 @@ pub struct Link {
 }
 
 impl Link {
+    /// The joint's DH parameters.
+    pub fn dh(&self) -> &Dh {
+        &self.dh
+    }
+
+    /// Sets the joint's DH parameters, and with them `sin α`, `cos α` and the motion subspace.
+    pub fn set_dh(&mut self, dh: Dh) {
+        let (sa, ca) = dh.alpha.sin_cos();
+        self.dh = dh;
+        (self.sin_alpha, self.cos_alpha) = (sa, ca);
+        self.axis = Motion::new(
+            Vector3::new(0.0, dh.a * ca, -dh.a * sa),
+            Vector3::new(0.0, sa, ca),
+        );
+    }
+
+    /// The joint's motion subspace in link coordinates: joint `i` turns about `z_{i−1}`, which in
+    /// frame `i` is `(0, sin α, cos α)` through `o_{i−1}`; so
+    /// `S = [0, a cos α, −a sin α, 0, sin α, cos α]`.
+    #[inline]
+    pub fn axis(&self) -> Motion {
+        self.axis
+    }
+
     /// The transform from frame `i−1` to frame `i` at joint angle `q`.
     #[inline]
     pub fn xform(&self, q: f64) -> Xform {
@@ -94,10 +118,11 @@ impl Link {
 pub struct Arm {
     /// The six links, base to tip.
     pub links: [Link; N_JOINTS],
-    /// Pose of the base frame 0 in the vehicle frame `C`.
-    pub t_body_base: Isometry3<f64>,
-    /// The same as a transform from `C` to `0` (built from the exact rotation matrix).
-    pub mount: Xform,
+    /// Pose of the base frame 0 in the vehicle frame `C` ([`Arm::t_body_base`]; set with
+    /// [`Arm::set_mount`], which keeps [`Arm::mount`] in step).
+    t_body_base: Isometry3<f64>,
+    /// The same as a transform from `C` to `0` ([`Arm::mount`]).
+    mount: Xform,
     /// Pose of the tool frame `G` in DH frame 6.
     pub t_flange_tool: Isometry3<f64>,
     /// Velocity scale of the smoothed Coulomb friction, rad/s.
@@ -113,23 +138,41 @@ impl Arm {
         let links = std::array::from_fn(|i| link(&model.links[i], env, model.drag_strips));
         let mount = model::rotation(&model.mount_rotation, "arm.mount_rotation")?;
         let tool = model::rotation(&model.tool.rotation, "arm.tool.rotation")?;
-        let mount_pos = model::vector3(&model.mount_position);
-        Ok(Arm {
+        let mut arm = Arm {
             links,
-            mount: Xform {
-                rot: mount.matrix().transpose(),
-                pos: mount_pos,
-            },
-            t_body_base: Isometry3::from_parts(
-                Translation3::from(mount_pos),
-                UnitQuaternion::from_rotation_matrix(&mount),
-            ),
+            mount: Xform::IDENTITY,
+            t_body_base: Isometry3::identity(),
             t_flange_tool: Isometry3::from_parts(
                 Translation3::from(model::vector3(&model.tool.position)),
                 UnitQuaternion::from_rotation_matrix(&tool),
             ),
             coulomb_smoothing: model.coulomb_smoothing,
-        })
+        };
+        arm.set_mount(&mount, &model::vector3(&model.mount_position));
+        Ok(arm)
+    }
+
+    /// Pose of the base frame 0 in the vehicle frame `C`.
+    pub fn t_body_base(&self) -> Isometry3<f64> {
+        self.t_body_base
+    }
+
+    /// The mount as a transform from `C` to `0` (built from the exact rotation matrix).
+    #[inline]
+    pub fn mount(&self) -> &Xform {
+        &self.mount
+    }
+
+    /// Mounts the base frame 0 at `position` in the vehicle frame `C`, turned by `rotation`.
+    pub fn set_mount(&mut self, rotation: &Rotation3<f64>, position: &Vector3<f64>) {
+        self.mount = Xform {
+            rot: rotation.matrix().transpose(),
+            pos: *position,
+        };
+        self.t_body_base = Isometry3::from_parts(
+            Translation3::from(*position),
+            UnitQuaternion::from_rotation_matrix(rotation),
+        );
     }
 
     /// The link-side rotor inertias `G² Jm`, kg·m².
@@ -165,8 +208,6 @@ impl Arm {
 
 /// One link of the model as a [`Link`].
 fn link(m: &model::LinkModel, env: &Environment, strips: usize) -> Link {
-    let (sin_alpha, cos_alpha) = m.dh.alpha.sin_cos();
-    let a = m.dh.a;
     let com = model::vector3(&m.center_of_mass);
     let rigid = Inertia::rigid(m.mass, &com, &model::matrix3(&m.inertia));
     let rho = env.water_density;
@@ -199,14 +240,11 @@ fn link(m: &model::LinkModel, env: &Environment, strips: usize) -> Link {
         }
     };
     let g = m.gear_ratio;
-    Link {
+    let mut link = Link {
         dh: m.dh,
-        sin_alpha,
-        cos_alpha,
-        axis: Motion::new(
-            Vector3::new(0.0, a * cos_alpha, -a * sin_alpha),
-            Vector3::new(0.0, sin_alpha, cos_alpha),
-        ),
+        sin_alpha: 0.0,
+        cos_alpha: 1.0,
+        axis: Motion::ZERO,
         body: Body::new(
             rigid,
             added,
@@ -219,7 +257,9 @@ fn link(m: &model::LinkModel, env: &Environment, strips: usize) -> Link {
         coulomb: [g.abs() * m.coulomb_friction[0], g.abs() * m.coulomb_friction[1]],
         limits: m.joint_limits,
         torque_limit: m.torque_limit,
-    }
+    };
+    link.set_dh(m.dh);
+    link
 }
 
 /// The default model's arm (AUV300 + PUMA 560), for the arm's unit tests.

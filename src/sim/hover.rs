@@ -194,7 +194,7 @@ fn follow(
     bar: Option<&Reach>,
 ) -> Result<Option<Reach>> {
     let (n, limit) = (targets.len(), cfg.max_thrust_utilisation);
-    let t_base_world = (t_world_body * arm.t_body_base).inverse();
+    let t_base_world = (t_world_body * arm.t_body_base()).inverse();
     let Some((first, _)) = targets.first() else {
         return Ok(None);
     };
@@ -411,7 +411,7 @@ mod tests {
         let h = choose(&mb.arm, &thrusters(), &traj, &cfg).unwrap();
         assert!(h.manipulability > 0.0);
         // Check it independently: every sample has an IK solution from the chosen pose.
-        let t_base_world = (h.t_world_body * mb.arm.t_body_base).inverse();
+        let t_base_world = (h.t_world_body * mb.arm.t_body_base()).inverse();
         let mut q = h.q_start;
         for s in &traj.samples {
             let target = Isometry3::from_parts(Translation3::from(s.position.coords), s.orientation);

@@ -601,7 +601,7 @@ impl Icu {
         if cfg.base_acceleration && cfg.acceleration != Acceleration::Commanded {
             // `ν̇` in `C` axes: `v̇ = f + g − ω × v` (`ω × v` left out: the ICU has no `v`),
             // `ω̇` the gyros' filtered derivative.
-            let g_body = arm.mount.rot.transpose() * base.gravity;
+            let g_body = arm.mount().rot.transpose() * base.gravity;
             let lin = y.fixed_rows::<3>(15) + g_body;
             let ang = dy.fixed_rows::<3>(6) / dt;
             let mut nu_dot = Vector6::new(lin.x, lin.y, lin.z, ang.x, ang.y, ang.z);
@@ -618,7 +618,7 @@ impl Icu {
                     .0;
                 nu_dot += sum - seen;
             }
-            base.acceleration = arm.mount.motion(&Motion::from_vector6(&nu_dot));
+            base.acceleration = arm.mount().motion(&Motion::from_vector6(&nu_dot));
         }
         debug_assert!(vt.q == m.q && vt.qd == m.qd, "velocity terms of another state");
         let m_wz = arm
@@ -827,7 +827,7 @@ mod tests {
             attitude: nalgebra::UnitQuaternion::identity(),
             omega: Vector3::zeros(),
             // At rest: the accelerometers read `−g`.
-            specific_force: -(arm.mount.rot.transpose() * base.gravity),
+            specific_force: -(arm.mount().rot.transpose() * base.gravity),
             position: Vector3::zeros(),
             position_time: 0.0,
         };
@@ -972,7 +972,7 @@ mod tests {
                 m_dz: shaft.map(|v| v + 0.05 * gaussian(&mut rng)),
                 attitude: nalgebra::UnitQuaternion::identity(),
                 omega: Vector3::zeros(),
-                specific_force: -(arm.mount.rot.transpose() * base.gravity),
+                specific_force: -(arm.mount().rot.transpose() * base.gravity),
                 position: Vector3::zeros(),
                 position_time: 0.0,
             };

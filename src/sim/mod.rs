@@ -464,7 +464,7 @@ pub fn simulate(
         // their velocity terms.
         let vt = arm.velocity_terms(&meas.q, &meas.qd, &base);
         let id = icu.identify(arm, &meas, &vt, &joints.drive(), &base, approach, dt);
-        let r_w0 = meas.attitude * arm.t_body_base.rotation;
+        let r_w0 = meas.attitude * arm.t_body_base().rotation;
         let f_imp_est = r_w0 * id.f_imp_base;
         // FCU.
         // Force control where the trajectory asks for a force; a sampler dragged at a set depth
@@ -699,7 +699,7 @@ fn external_moments(
     jacobian: &Matrix6<f64>,
     f_env: &Vector3<f64>,
 ) -> JointVector {
-    let r_w0 = s.t_world_body.rotation * system.arm.t_body_base.rotation;
+    let r_w0 = s.t_world_body.rotation * system.arm.t_body_base().rotation;
     let f_imp_base = r_w0.inverse() * -f_env;
     jacobian.fixed_rows::<3>(0).transpose() * f_imp_base
 }

@@ -21,7 +21,7 @@ pub fn tool_in_base(
     t_world_tool: &Isometry3<f64>,
     t_world_body: &Isometry3<f64>,
 ) -> Isometry3<f64> {
-    (t_world_body * arm.t_body_base).inverse() * t_world_tool
+    (t_world_body * arm.t_body_base()).inverse() * t_world_tool
 }
 
 /// The vehicle pose from a position fix and an attitude.
