@@ -428,7 +428,11 @@ pub fn simulate(
     let mut rec = Recorder::new(force_setpoint, cfg.settle_time_s);
     let mut clock = t0;
     let mut q_set = hover.q_start;
-    let mut prev_target = None;
+    // The feed-forward rate's refresh: every `rate_every` periods, from the target then.
+    let rate_every =
+        ((cfg.control_rate_hz / (20.0 * cfg.joints.rate_feedforward_hz)).floor() as usize).max(1);
+    let mut rate_from: Option<Isometry3<f64>> = None;
+    let mut qd_set = JointVector::zeros();
     let mut m_ez_true_prev = JointVector::zeros();
     let (mut dwell_wait, mut settled_for) = (0.0, 0.0);
     let (mut unreachable, mut saturated) = (0usize, 0usize);
@@ -489,24 +493,25 @@ pub fn simulate(
         } else {
             h
         };
-        let q_before = q_set;
         match tcu::set_point(arm, &tcu::tool_in_base(arm, &target, &believed), &q_set)? {
             Some(q) => q_set = q,
             None => unreachable += 1,
         }
         // The set-points' rate from the desired tool motion alone (the trajectory and the
-        // FCU's offset), the vehicle held where NS believes it now: the last period's target
-        // at today's belief. The vehicle's own turning is left to the reference filter: fed
-        // forward too it took the bottle's force transient from 66–72 to 63–66 N, but pumped
-        // the arm's reaction into the soil run's roll (‖r‖ 0.011 → 0.026 m).
-        let qd_set = match prev_target {
-            Some(prev) if cfg.joints.rate_feedforward_hz > 0.0 => {
-                tcu::set_point(arm, &tcu::tool_in_base(arm, &prev, &believed), &q_before)?
-                    .map_or_else(JointVector::zeros, |q| (q_set - q) / dt)
+        // FCU's offset), the vehicle held where NS believes it now: the target of the last
+        // refresh at today's belief. The vehicle's own turning is left to the reference filter:
+        // fed forward too it took the bottle's force transient from 66–72 to 63–66 N, but pumped
+        // the arm's reaction into the soil run's roll (‖r‖ 0.011 → 0.026 m). The rate passes a
+        // `rate_feedforward_hz` low-pass, which is all but blind above twenty times its cut-off,
+        // so it is refreshed at that rate (every `rate_every` periods, one IK solve instead of
+        // one a period) over the refresh's whole interval.
+        if cfg.joints.rate_feedforward_hz > 0.0 && k.is_multiple_of(rate_every) {
+            if let Some(prev) = rate_from {
+                qd_set = tcu::set_point(arm, &tcu::tool_in_base(arm, &prev, &believed), &q_set)?
+                    .map_or_else(JointVector::zeros, |q| (q_set - q) / (rate_every as f64 * dt));
             }
-            _ => JointVector::zeros(),
-        };
-        prev_target = Some(target);
+            rate_from = Some(target);
+        }
         joints.follow(&q_set, &qd_set, dt);
         // The drive torques, and the arm's wrench on the vehicle for the commanded motion under
         // the identified tool force (the open loop of eq. 17) from the same inverse dynamics.
