@@ -14,7 +14,7 @@
 use crate::arm::JointVector;
 use crate::config::{non_negative, positive};
 use crate::error::Result;
-use crate::synth::random::gaussian;
+use crate::synth::random::NormalPairs;
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
@@ -133,7 +133,7 @@ pub struct Measurements {
 #[derive(Debug)]
 pub struct Sensors {
     cfg: SensorConfig,
-    rng: ChaCha8Rng,
+    noise: NormalPairs,
     /// True positions not yet old enough to be reported: (time, position).
     pending: VecDeque<(f64, Vector3<f64>)>,
     fix: (f64, Vector3<f64>),
@@ -147,7 +147,7 @@ impl Sensors {
     pub fn new(cfg: &SensorConfig, seed: u64, position0: Vector3<f64>) -> Self {
         let mut s = Sensors {
             cfg: *cfg,
-            rng: ChaCha8Rng::seed_from_u64(seed),
+            noise: NormalPairs::new(ChaCha8Rng::seed_from_u64(seed)),
             pending: VecDeque::new(),
             fix: (-cfg.vision_delay_s, position0),
             next_fix: 0.0,
@@ -159,7 +159,7 @@ impl Sensors {
 
     fn noise(&mut self, sigma: f64) -> f64 {
         if sigma > 0.0 {
-            sigma * gaussian(&mut self.rng)
+            sigma * self.noise.sample()
         } else {
             0.0
         }

@@ -30,6 +30,42 @@ pub fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
     (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos()
 }
 
+/// Standard normal samples two at a time (Marsaglia's polar method): a point uniform in the
+/// unit disc (by rejection, 1 − π/4 of the draws) gives `u·f` and `v·f`,
+/// `f = √(−2 ln s / s)`, independent standard normals, with one logarithm and no trigonometry
+/// for the pair — about a third of [`gaussian`]'s work per sample, for streams drawn every
+/// control period (the simulation's sensors). [`gaussian`] stays the synthetic scenes' sampler:
+/// the committed scans are its output.
+#[derive(Debug)]
+pub struct NormalPairs {
+    rng: ChaCha8Rng,
+    spare: Option<f64>,
+}
+
+impl NormalPairs {
+    /// Samples drawn from `rng`.
+    pub fn new(rng: ChaCha8Rng) -> Self {
+        NormalPairs { rng, spare: None }
+    }
+
+    /// The next sample.
+    pub fn sample(&mut self) -> f64 {
+        if let Some(z) = self.spare.take() {
+            return z;
+        }
+        loop {
+            let u = 2.0 * self.rng.random::<f64>() - 1.0;
+            let v = 2.0 * self.rng.random::<f64>() - 1.0;
+            let s = u * u + v * v;
+            if s > 0.0 && s < 1.0 {
+                let f = (-2.0 * s.ln() / s).sqrt();
+                self.spare = Some(v * f);
+                return u * f;
+            }
+        }
+    }
+}
+
 /// A uniform sample in `[r[0], r[1]]` (the single value when the range is empty).
 pub fn uniform(rng: &mut ChaCha8Rng, r: [f64; 2]) -> f64 {
     r[0] + (r[1] - r[0]) * rng.random::<f64>()
@@ -107,6 +143,46 @@ mod tests {
         assert!(mean.abs() < 0.01 && (var - 1.0).abs() < 0.01, "{mean} {var}");
         let beyond2 = xs.iter().filter(|x| x.abs() > 2.0).count() as f64 / n as f64;
         assert!((beyond2 - 0.0455).abs() < 0.003, "{beyond2}");
+    }
+
+    /// The polar method's samples, the odd (the pairs' first) and the even (their second) apart,
+    /// have the distribution of [`gaussian`]'s (two-sample Kolmogorov–Smirnov at the 0.1 %
+    /// level), their mean and variance are 0 and 1, and consecutive samples are uncorrelated.
+    #[test]
+    fn normal_pairs_are_standard_normal_and_independent() {
+        let n = 100_000;
+        let mut rng = stream(11, 0, 0);
+        let mut reference: Vec<f64> = (0..n).map(|_| gaussian(&mut rng)).collect();
+        reference.sort_by(f64::total_cmp);
+        let mut pairs = NormalPairs::new(stream(12, 0, 0));
+        let drawn: Vec<f64> = (0..2 * n).map(|_| pairs.sample()).collect();
+        let ks = |mut xs: Vec<f64>| {
+            xs.sort_by(f64::total_cmp);
+            let (mut i, mut j, mut d) = (0, 0, 0.0f64);
+            while i < n && j < n {
+                if xs[i] <= reference[j] {
+                    i += 1;
+                } else {
+                    j += 1;
+                }
+                d = d.max((i as f64 - j as f64).abs() / n as f64);
+            }
+            d
+        };
+        // The critical distance for n = m at 0.1 %: 1.95 √(2/n).
+        let critical = 1.95 * (2.0 / n as f64).sqrt();
+        for half in 0..2 {
+            let xs: Vec<f64> = drawn.iter().skip(half).step_by(2).copied().collect();
+            let d = ks(xs);
+            assert!(d < critical, "half {half}: D = {d}, critical {critical}");
+        }
+        // Standard errors 1/√(2n) ≈ 0.0022 (mean) and 1/√n ≈ 0.0032 (variance): a 2 % error
+        // of the scale shows.
+        let mean = drawn.iter().sum::<f64>() / (2 * n) as f64;
+        let var = drawn.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (2 * n) as f64;
+        assert!(mean.abs() < 0.01 && (var - 1.0).abs() < 0.015, "{mean} {var}");
+        let lag1 = drawn.windows(2).map(|w| w[0] * w[1]).sum::<f64>() / (2 * n - 1) as f64;
+        assert!(lag1.abs() < 0.01, "{lag1}");
     }
 
     #[test]
