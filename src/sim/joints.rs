@@ -30,7 +30,8 @@ pub struct JointControlConfig {
     pub reference_filter_rad_s: f64,
     /// Cut-off of the low-pass on the set-points' rate, fed forward through the reference
     /// filter so that a set-point moving at a steady rate is followed without lag, Hz; 0 turns
-    /// the feed-forward off.
+    /// the feed-forward off. The TCU refreshes the rate every `⌊control rate / (20 × this)⌋`
+    /// control periods (at least one), from the desired motion over that interval.
     pub rate_feedforward_hz: f64,
     /// Add the identified external moments `M̂_ez` to the drive torques.
     pub compensate_external: bool,
