@@ -1,5 +1,5 @@
 //! The main job end to end: `uvms run pipelines/bottle_cleaning.toml` (the scan in `data/` →
-//! segment → check → plan a ring → hover point → 43 s of the contact operation at a 1 kHz
+//! segment → check → plan a ring → hover point → 36 s of the contact operation at a 1 kHz
 //! control rate), on one core. Criterion times the whole run; each run's simulated seconds per
 //! wall-clock second of the simulation alone (`realtime_factor` of the summary) is printed.
 //!
