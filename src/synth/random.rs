@@ -30,10 +30,10 @@ pub fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
     (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos()
 }
 
-/// Standard normal samples two at a time (Marsaglia's polar method): a point uniform in the
-/// unit disc (by rejection, 1 − π/4 of the draws) gives `u·f` and `v·f`,
-/// `f = √(−2 ln s / s)`, independent standard normals, with one logarithm and no trigonometry
-/// for the pair — about a third of [`gaussian`]'s work per sample, for streams drawn every
+/// Standard normal samples two at a time (Marsaglia's polar method): a point `(u, v)` uniform
+/// in the unit disc (drawn in the square, the 1 − π/4 outside thrown away), `s = u² + v²`, gives
+/// `u·f` and `v·f`, `f = √(−2 ln s / s)`, independent standard normals, with one logarithm and
+/// no trigonometry for the pair — about a third of [`gaussian`]'s work per sample, for streams drawn every
 /// control period (the simulation's sensors). [`gaussian`] stays the synthetic scenes' sampler:
 /// the committed scans are its output.
 #[derive(Debug)]
