@@ -12,9 +12,10 @@
 
 use super::perpendicular;
 use crate::mesh::TriangleMesh;
+use crate::synth::random::gaussian;
 use nalgebra::{Point3, Vector3};
+use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
-use rand::{RngExt, SeedableRng};
 
 /// A surface with a known distance function and normal field.
 pub trait Truth {
@@ -299,13 +300,6 @@ fn grid_scan(
         }
     }
     mesh
-}
-
-/// A standard normal variate (Box–Muller).
-pub fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
-    let u2: f64 = rng.random();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
 /// The mesh without the triangles whose centroid lies within `radius` of `centre` (a hole).
