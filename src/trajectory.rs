@@ -150,7 +150,8 @@ impl Trajectory {
 
     /// The desired state at time `t` (clamped to the trajectory's span): position, `k` and force
     /// interpolated linearly, orientation by slerp; phase and flags of the sample at or before
-    /// `t`. `None` for an empty trajectory.
+    /// `t`, except that the move towards a retreat sample is the retreat. `None` for an empty
+    /// trajectory.
     pub fn sample_at(&self, t: f64) -> Option<Sample> {
         let first = self.samples.first()?;
         let i = self.samples.partition_point(|s| s.t <= t);
@@ -168,7 +169,12 @@ impl Trajectory {
             orientation: a.orientation.slerp(&b.orientation, u),
             k: a.k.lerp(&b.k, u).try_normalize(1e-12).unwrap_or(a.k),
             force: a.force + (b.force - a.force) * u,
-            phase: a.phase,
+            // The move towards a retreat sample is the retreat.
+            phase: if b.phase == Phase::Retreat {
+                b.phase
+            } else {
+                a.phase
+            },
             fallback: a.fallback,
         })
     }
@@ -495,6 +501,13 @@ mod tests {
         assert_eq!(t.sample_at(-1.0).unwrap(), t.samples[0]);
         assert_eq!(t.sample_at(9.0).unwrap(), t.samples[4]);
         assert!(Trajectory::default().sample_at(0.0).is_none());
+        // Between two samples the phase is the earlier's, but the move towards a retreat sample
+        // is the retreat (the force loop lets go as the tool leaves the last point).
+        assert_eq!(s.phase, Phase::Contact);
+        let mut t = demo();
+        t.samples[4].phase = Phase::Retreat;
+        assert_eq!(t.sample_at(0.175).unwrap().phase, Phase::Retreat);
+        assert_eq!(t.sample_at(0.125).unwrap().phase, Phase::Contact);
     }
 
     #[test]

@@ -37,6 +37,11 @@ pub struct TimingConfig {
     /// force at the start of the dwell, s (0: a step). A softer touch: the vehicle turns
     /// under the arm's growing reaction slowly enough for the trajectory correction to follow.
     pub force_ramp_s: f64,
+    /// Time over which the tool speeds up at a constant rate from rest to `speed_m_s` at the
+    /// path's start, and slows down to rest at its end, s (0: the speed steps). On a path too
+    /// short for both at that acceleration the tool speeds up over its first half and slows
+    /// down over its second.
+    pub accel_s: f64,
     /// Speed of the retreat along `-k`, m/s.
     pub retreat_speed_m_s: f64,
 }
@@ -50,6 +55,7 @@ impl Default for TimingConfig {
             approach_speed_m_s: 0.005,
             dwell_s: 0.0,
             force_ramp_s: 0.0,
+            accel_s: 0.5,
             retreat_speed_m_s: 0.01,
         }
     }
@@ -67,6 +73,7 @@ impl TimingConfig {
         positive("timing.approach_speed_m_s", self.approach_speed_m_s)?;
         non_negative("timing.dwell_s", self.dwell_s)?;
         non_negative("timing.force_ramp_s", self.force_ramp_s)?;
+        non_negative("timing.accel_s", self.accel_s)?;
         if self.force_ramp_s > self.dwell_s {
             return Err(Error::input(
                 "timing.force_ramp_s",
@@ -281,16 +288,30 @@ pub fn schedule(
     let mut out = Vec::new();
     // Approach: from the stand-off along k (outside the surface) up to the first point.
     let steps = |length: f64, speed: f64| ((length / (speed * cfg.sample_period_s)).ceil() as usize).max(1);
+    // When each of the `n` equal steps of a straight move along `k` ends.
+    let move_time = |i: usize, n: usize, speed: f64| {
+        time_along(
+            cfg.standoff_m * i as f64 / n as f64,
+            cfg.standoff_m,
+            speed,
+            cfg.accel_s,
+        )
+    };
     let mut t = 0.0;
     if cfg.standoff_m > 0.0 {
         let n = steps(cfg.standoff_m, cfg.approach_speed_m_s);
-        let dt = cfg.standoff_m / cfg.approach_speed_m_s / n as f64;
         for i in 0..n {
             let mut p = *first;
             p.point -= k0 * cfg.standoff_m * (1.0 - i as f64 / n as f64);
-            out.push(sample(t, &p, q0, 0.0, Phase::Approach));
-            t += dt;
+            out.push(sample(
+                i as f64 * cfg.standoff_m / cfg.approach_speed_m_s / n as f64,
+                &p,
+                q0,
+                0.0,
+                Phase::Approach,
+            ));
         }
+        t = cfg.standoff_m / cfg.approach_speed_m_s;
         stats.approach_s = t;
     }
     if cfg.dwell_s > 0.0 {
@@ -308,9 +329,11 @@ pub fn schedule(
         stats.dwell_s = cfg.dwell_s;
     }
     let t_contact = t;
-    let dt = spacing / cfg.speed_m_s;
+    let length = spacing * path.len().saturating_sub(1) as f64;
+    let at = |i: usize| time_along(i as f64 * spacing, length, cfg.speed_m_s, cfg.accel_s);
     for (i, (p, q)) in path.iter().zip(orientations).enumerate() {
         if i > 0 {
+            let dt = at(i) - at(i - 1);
             let turn = orientations[i - 1].angle_to(q) / max_rate;
             if turn > dt {
                 stats.rate_limited_steps += 1;
@@ -322,16 +345,41 @@ pub fn schedule(
     stats.contact_s = t - t_contact;
     if cfg.standoff_m > 0.0 {
         let n = steps(cfg.standoff_m, cfg.retreat_speed_m_s);
-        let dt = cfg.standoff_m / cfg.retreat_speed_m_s / n as f64;
         for i in 1..=n {
-            t += dt;
             let mut p = *last;
             p.point -= k1 * cfg.standoff_m * (i as f64 / n as f64);
-            out.push(sample(t, &p, q1, 0.0, Phase::Retreat));
+            out.push(sample(
+                t + move_time(i, n, cfg.retreat_speed_m_s),
+                &p,
+                q1,
+                0.0,
+                Phase::Retreat,
+            ));
         }
-        stats.retreat_s = cfg.standoff_m / cfg.retreat_speed_m_s;
+        stats.retreat_s = move_time(n, n, cfg.retreat_speed_m_s);
     }
     (out, stats)
+}
+
+/// When a tool moving `length` metres at `speed` with the speed-up and slow-down of `accel_s`
+/// seconds (constant acceleration `speed / accel_s`) is `s` along: `s / speed` plus half the
+/// speed-up in the middle, `√(2 s / a)` while speeding up, symmetric while slowing down.
+fn time_along(s: f64, length: f64, speed: f64, accel_s: f64) -> f64 {
+    if accel_s <= 0.0 {
+        return s / speed;
+    }
+    let a = speed / accel_s;
+    // The distance of each speed change, at most half the path (a triangle profile).
+    let ramp = (0.5 * speed * accel_s).min(0.5 * length);
+    let ramp_t = (2.0 * ramp / a).sqrt();
+    let total = 2.0 * ramp_t + (length - 2.0 * ramp) / speed;
+    if s <= ramp {
+        (2.0 * s / a).sqrt()
+    } else if s >= length - ramp {
+        total - (2.0 * (length - s).max(0.0) / a).sqrt()
+    } else {
+        ramp_t + (s - ramp) / speed
+    }
 }
 
 #[cfg(test)]
@@ -372,6 +420,7 @@ mod tests {
     fn schedule_speeds_and_rate_limit() {
         let cfg = TimingConfig {
             dwell_s: 1.0,
+            accel_s: 0.0,
             ..TimingConfig::default()
         };
         let (path, h) = resample(&[pp(0.0, 0.0), pp(0.1, 0.0)], cfg.spacing()).unwrap();
@@ -413,6 +462,73 @@ mod tests {
         assert_eq!(last.phase, Phase::Retreat);
         assert!((last.position - Point3::new(0.1, 0.0, -0.05)).norm() < 1e-12);
         assert!((s.last().unwrap().t - (10.0 + 1.0 + stats.contact_s + 5.0)).abs() < 1e-9);
+        assert!(s.windows(2).all(|w| w[1].t > w[0].t));
+    }
+
+    /// The speed-up and slow-down: constant acceleration from rest to the speed over `accel_s`,
+    /// the time along the path continuous, `accel_s` more than at constant speed; on a short
+    /// path a triangle whose top stays below the speed.
+    #[test]
+    fn time_along_speeds_up_and_slows_down() {
+        let (v, ta, length) = (0.02, 0.5, 0.1);
+        let a = v / ta;
+        let t = |s: f64| time_along(s, length, v, ta);
+        assert_eq!(t(0.0), 0.0);
+        assert!((t(length) - (length / v + ta)).abs() < 1e-12);
+        // Speeding up: s = a t² / 2; at the end of it the speed, then constant.
+        assert!((t(0.001) - (2.0 * 0.001 / a).sqrt()).abs() < 1e-12);
+        let ramp = 0.5 * v * ta;
+        assert!((t(ramp) - ta).abs() < 1e-12);
+        let ds = 1e-7;
+        for s in [ramp + 1e-3, 0.05, length - ramp - 1e-3] {
+            assert!((ds / (t(s + ds) - t(s)) - v).abs() < 1e-6);
+        }
+        // Continuous and symmetric: the time to go the last s equals the time to go the first s.
+        for s in [1e-4, ramp - 1e-9, ramp, 0.02] {
+            assert!((t(length) - t(length - s) - t(s)).abs() < 1e-9, "{s}");
+        }
+        // A path shorter than both speed changes: a triangle, top speed √(a L) below v.
+        let short = 0.004;
+        let ts = |s: f64| time_along(s, short, v, ta);
+        assert!((ts(short) - 2.0 * (short / a).sqrt()).abs() < 1e-12);
+        let top = ds / (ts(0.5 * short + ds) - ts(0.5 * short));
+        assert!((top - (a * short).sqrt()).abs() < 1e-5 && top < v, "{top}");
+        // No speed-up: the speed at once.
+        assert_eq!(time_along(0.05, length, v, 0.0), 0.05 / v);
+    }
+
+    /// With `accel_s` the contact path and the retreat start and end at rest and take `accel_s`
+    /// longer; the approach keeps its speed (the tool meets the surface at the approach speed).
+    #[test]
+    fn schedule_speeds_up_from_rest() {
+        let cfg = TimingConfig {
+            accel_s: 0.5,
+            ..TimingConfig::default()
+        };
+        let (path, h) = resample(&[pp(0.0, 0.0), pp(0.1, 0.0)], cfg.spacing()).unwrap();
+        let q = vec![UnitQuaternion::identity(); path.len()];
+        let (s, stats) = schedule(&path, &q, h, &cfg, 1.0);
+        assert!((stats.contact_s - (0.1 / 0.02 + 0.5)).abs() < 1e-9);
+        assert!((stats.retreat_s - (0.05 / 0.01 + 0.5)).abs() < 1e-9);
+        assert!((stats.approach_s - 0.05 / 0.005).abs() < 1e-9);
+        let speeds = |phase: Phase| -> Vec<f64> {
+            s.windows(2)
+                .filter(|w| w[0].phase == phase && w[1].phase == phase)
+                .map(|w| (w[1].position - w[0].position).norm() / (w[1].t - w[0].t))
+                .collect()
+        };
+        let contact = speeds(Phase::Contact);
+        // The first and last steps' mean speeds: a step of h from rest takes √(2 h / a).
+        let first = h / (2.0 * h / (0.02 / 0.5)).sqrt();
+        assert!((contact[0] - first).abs() < 1e-9 && (contact[contact.len() - 1] - first).abs() < 1e-9);
+        assert!((contact[contact.len() / 2] - 0.02).abs() < 1e-9);
+        assert!(speeds(Phase::Approach).iter().all(|v| (v - 0.005).abs() < 1e-9));
+        // The retreat's second step (its first between two retreat samples), 0.5 mm from 0.5 mm
+        // out: 0.5 mm over √(2 · 1 mm / a) − √(2 · 0.5 mm / a), a = 0.02 m/s².
+        let retreat = speeds(Phase::Retreat);
+        let second = 5e-4 / ((2.0 * 1e-3 / 0.02f64).sqrt() - (2.0 * 5e-4 / 0.02f64).sqrt());
+        assert!((retreat[0] - second).abs() < 1e-9, "{}", retreat[0]);
+        assert!((retreat[retreat.len() / 2] - 0.01).abs() < 1e-9);
         assert!(s.windows(2).all(|w| w[1].t > w[0].t));
     }
 
