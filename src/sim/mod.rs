@@ -381,7 +381,9 @@ pub fn simulate(
     let mut fcu = Fcu::new(&cfg.force);
     let mut icu = Icu::new(&cfg.icu, &cfg.sensors).on_vehicle(&ctrl);
     let mut joints = JointControl::new(&cfg.joints, &hover.q_start);
-    let mut vc = VehicleControl::new(&cfg.vehicle, &h);
+    let units = &ctrl_model.thrusters.units;
+    let thruster_lag = units.iter().map(|u| u.time_constant).sum::<f64>() / units.len().max(1) as f64;
+    let mut vc = VehicleControl::new(&cfg.vehicle, &h, thruster_lag);
     let mut nav = Navigation::new(&cfg.navigation, h.translation.vector, g);
 
     // The station was held before the run: the drives hold the arm's static load and the

@@ -9,7 +9,12 @@
 //! - the open loop of eq. (17): minus the force and moment the manipulator exerts on the
 //!   vehicle, `ᶜF = ᶜF_D + ᶜ_G A ᴳF_e`, `ᶜM = ᶜM_D + ᶜM_e`, from the IDP of the arm (its motion,
 //!   weight, buoyancy and water forces: `F_D`, `M_D`) loaded with the identified tool force
-//!   (`F_e`, `M_e`) — computed by the caller with [`crate::arm::Arm::inverse_dynamics`].
+//!   (`F_e`, `M_e`) — computed by the caller with [`crate::arm::Arm::inverse_dynamics`]. The
+//!   thrusters follow their command with a first-order lag (0.2 s on the model's), which left
+//!   the vehicle to take a fast change of the manipulator's action alone: when the soil's force
+//!   on the sampler turned by 126 N within 0.4 s at the drag's start, the vehicle turned by
+//!   40 mrad and drifted 23 mm. The open loop therefore passes the lag's inverse behind a short
+//!   low-pass (`open_loop_lag_s`), so the thrust follows it with that lag instead.
 //!
 //! The wrench is then allocated to the thrusters ([`crate::vehicle::thrusters::Thrusters::allocate`]).
 
@@ -18,6 +23,7 @@ use super::sensors::Measurements;
 use crate::body::Body;
 use crate::config::non_negative;
 use crate::error::Result;
+use crate::integrate::lag_gain;
 use crate::spatial_algebra::Force;
 use nalgebra::{Isometry3, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
@@ -38,6 +44,10 @@ pub struct VehicleControlConfig {
     pub attitude_ki: f64,
     /// Attitude rate gain, N·m·s/rad.
     pub attitude_kd: f64,
+    /// The open loop of eq. (17) passes the inverse of the thrusters' first-order lag behind a
+    /// low-pass of this time constant, so that the thrust follows the manipulator's action with
+    /// this lag instead of the thrusters' own, s (0: no compensation).
+    pub open_loop_lag_s: f64,
 }
 
 /// The position gains are those a 0.25 s old feedback did not allow: on the navigation's
@@ -52,6 +62,7 @@ impl Default for VehicleControlConfig {
             attitude_kp: 600.0,
             attitude_ki: 60.0,
             attitude_kd: 300.0,
+            open_loop_lag_s: 0.05,
         }
     }
 }
@@ -67,7 +78,8 @@ impl VehicleControlConfig {
         non_negative("sim.vehicle.position_kd", self.position_kd)?;
         non_negative("sim.vehicle.attitude_kp", self.attitude_kp)?;
         non_negative("sim.vehicle.attitude_ki", self.attitude_ki)?;
-        non_negative("sim.vehicle.attitude_kd", self.attitude_kd)
+        non_negative("sim.vehicle.attitude_kd", self.attitude_kd)?;
+        non_negative("sim.vehicle.open_loop_lag_s", self.open_loop_lag_s)
     }
 }
 
@@ -77,17 +89,43 @@ pub struct VehicleControl {
     cfg: VehicleControlConfig,
     hover: Isometry3<f64>,
     integral: Vector6<f64>,
+    /// The thrusters' time constant (the controller's model), s.
+    thruster_lag_s: f64,
+    /// The open loop's low-pass (none before the first period).
+    open_loop_low_pass: Option<Vector6<f64>>,
 }
 
 impl VehicleControl {
     /// Holding the stabilisation pose `hover` (`t_world_body`), which is also the pose the
     /// vision system reported before the run.
-    pub fn new(cfg: &VehicleControlConfig, hover: &Isometry3<f64>) -> Self {
+    /// `thruster_lag_s` is the thrusters' first-order time constant in the controller's model.
+    pub fn new(cfg: &VehicleControlConfig, hover: &Isometry3<f64>, thruster_lag_s: f64) -> Self {
         VehicleControl {
             cfg: *cfg,
             hover: *hover,
             integral: Vector6::zeros(),
+            thruster_lag_s,
+            open_loop_low_pass: None,
         }
+    }
+
+    /// The command that makes thrusters of time constant `τ_T` (held over the period) deliver
+    /// `open_loop` through a first-order low-pass of `τ_f = open_loop_lag_s`: the thrust that
+    /// is the low-pass's output `y` now moves to its next value, `y + (x − y) k_f / k_T` with
+    /// `k = 1 − e^(−dt/τ)` (the lag's inverse `1 + τ_T s` after `1/(1 + τ_f s)`, exact for the
+    /// held command).
+    fn lead(&mut self, open_loop: &Force, dt: f64) -> Force {
+        let tf = self.cfg.open_loop_lag_s;
+        let k_t = lag_gain(dt, self.thruster_lag_s);
+        if tf <= 0.0 || k_t <= 0.0 {
+            return *open_loop;
+        }
+        let x = open_loop.to_vector6();
+        let y = self.open_loop_low_pass.get_or_insert(x);
+        let step = (x - *y) * lag_gain(dt, tf);
+        let command = *y + step / k_t;
+        *y += step;
+        Force::from_vector6(&command)
     }
 
     /// The body wrench (`C` axes, about `C`'s origin) for the measurements `m` (attitude and
@@ -104,6 +142,7 @@ impl VehicleControl {
         open_loop: &Force,
         dt: f64,
     ) -> Vector6<f64> {
+        let open_loop = self.lead(open_loop, dt);
         let c = &self.cfg;
         let r = m.attitude;
         let e_pos = r.inverse() * (self.hover.translation.vector - nav.position);
@@ -126,5 +165,49 @@ impl VehicleControl {
         tau.fixed_rows_mut::<3>(3)
             .copy_from(&(ang - restoring.ang + open_loop.ang));
         tau
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A step of the open loop reaches thrusters of the model's lag through the compensation
+    /// as the first-order response of `open_loop_lag_s` (to round-off); without it, with the
+    /// thrusters' own 0.2 s.
+    #[test]
+    fn open_loop_thrust_follows_with_the_short_lag() {
+        let (dt, tau_t) = (1e-3, 0.2);
+        let step = Force::new(Vector3::new(100.0, 0.0, 0.0), Vector3::new(0.0, 0.0, -40.0));
+        let thrust_after = |lag_s: f64, t: f64| {
+            let cfg = VehicleControlConfig {
+                open_loop_lag_s: lag_s,
+                ..VehicleControlConfig::default()
+            };
+            let mut vc = VehicleControl::new(&cfg, &Isometry3::identity(), tau_t);
+            // At rest before the step, then the thrusters' exact lag with the command held.
+            let mut thrust = vc.lead(&Force::ZERO, dt).to_vector6();
+            let k = lag_gain(dt, tau_t);
+            for _ in 0..(t / dt).round() as usize {
+                let command = vc.lead(&step, dt).to_vector6();
+                thrust += (command - thrust) * k;
+            }
+            thrust
+        };
+        let target = step.to_vector6();
+        for t in [0.01, 0.05, 0.2, 0.5] {
+            let expected = target * (1.0 - (-t / 0.05f64).exp());
+            let got = thrust_after(0.05, t);
+            assert!(
+                (got - expected).amax() < 1e-9 * target.amax(),
+                "{t}: {got} {expected}"
+            );
+        }
+        // Without the compensation the thrust after 50 ms is 22 % of the step, not 63 %.
+        let plain = thrust_after(0.0, 0.05)[0];
+        assert!(
+            (plain - 100.0 * (1.0 - (-0.05f64 / tau_t).exp())).abs() < 1e-9,
+            "{plain}"
+        );
     }
 }
