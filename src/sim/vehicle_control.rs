@@ -98,7 +98,8 @@ pub struct VehicleControl {
 impl VehicleControl {
     /// Holding the stabilisation pose `hover` (`t_world_body`), which is also the pose the
     /// vision system reported before the run.
-    /// `thruster_lag_s` is the thrusters' first-order time constant in the controller's model.
+    /// `thruster_lag_s` is the thrusters' first-order time constant in the controller's model
+    /// (their mean if they differ).
     pub fn new(cfg: &VehicleControlConfig, hover: &Isometry3<f64>, thruster_lag_s: f64) -> Self {
         VehicleControl {
             cfg: *cfg,
@@ -116,8 +117,9 @@ impl VehicleControl {
     /// held command).
     fn lead(&mut self, open_loop: &Force, dt: f64) -> Force {
         let tf = self.cfg.open_loop_lag_s;
+        // Nothing to compensate for thrusters without lag; nothing to do in no time.
         let k_t = lag_gain(dt, self.thruster_lag_s);
-        if tf <= 0.0 || k_t <= 0.0 {
+        if tf <= 0.0 || self.thruster_lag_s <= 0.0 || k_t <= 0.0 {
             return *open_loop;
         }
         let x = open_loop.to_vector6();
