@@ -108,13 +108,8 @@ impl Arm {
         let l = &self.links;
         let dh = |i: usize| *l[i].dh();
         let off = |i: usize| l[i].dh().theta_offset;
-        let t06 = t_base_tool * self.t_flange_tool.inverse();
-        let r06 = t06.rotation.to_rotation_matrix().into_inner();
-        // Wrist centre o5 = o6 − d6 z5 − a6 x6, with z5 = R06 Rx(−α6) e_z.
-        let (s6a, c6a) = dh(5).alpha.sin_cos();
-        let z5 = r06 * Vector3::new(0.0, s6a, c6a);
-        let pw = t06.translation.vector - z5 * dh(5).d - r06.column(0) * dh(5).a;
-        let (px, py, pz) = (pw.x, pw.y, pw.z - dh(0).d);
+        let (r06, pw) = self.wrist_centre(t_base_tool);
+        let (px, py, pz) = (pw.x, pw.y, pw.z);
         let lateral = dh(1).d + dh(2).d;
         let (a2, a3, d4) = (dh(1).a, dh(2).a, dh(3).d);
         let l3 = a3.hypot(d4);
@@ -359,6 +354,63 @@ impl Arm {
         Ok(out)
     }
 
+    /// The rotation of frame 6 and the wrist centre `o5 = o6 − d6 z5 − a6 x6`
+    /// (`z5 = R06 Rx(−α6) e_z`) for the tool pose `t_base_tool`, its z taken from the
+    /// shoulder's height `d1`: what the IK's position part solves for.
+    fn wrist_centre(&self, t_base_tool: &Isometry3<f64>) -> (Matrix3<f64>, Vector3<f64>) {
+        let dh = |i: usize| *self.links[i].dh();
+        let t06 = t_base_tool * self.t_flange_tool.inverse();
+        let r06 = t06.rotation.to_rotation_matrix().into_inner();
+        let (s6a, c6a) = dh(5).alpha.sin_cos();
+        let z5 = r06 * Vector3::new(0.0, s6a, c6a);
+        let pw = t06.translation.vector - z5 * dh(5).d - r06.column(0) * dh(5).a;
+        (r06, Vector3::new(pw.x, pw.y, pw.z - dh(0).d))
+    }
+
+    /// Whether the wrist centre of the tool pose `t_base_tool` is within the reach of the
+    /// shoulder and elbow, a necessary condition for an inverse-kinematics solution with a
+    /// margin over the IK's round-off: `false` means [`Arm::ik`] has none (the joint limits
+    /// may still exclude every one when `true`). An arm not of the PUMA class, whose IK is
+    /// an error, is always within reach here.
+    pub fn within_reach(&self, t_base_tool: &Isometry3<f64>) -> bool {
+        if self.check_puma_structure().is_err() {
+            return true;
+        }
+        let dh = |i: usize| *self.links[i].dh();
+        let (_, p) = self.wrist_centre(t_base_tool);
+        let lateral = dh(1).d + dh(2).d;
+        let (a2, l3) = (dh(1).a, dh(2).a.hypot(dh(3).d));
+        let rho2 = p.x * p.x + p.y * p.y;
+        if rho2.sqrt() < lateral.abs() - 1e-9 {
+            return false;
+        }
+        // Both shoulder solutions put the wrist centre at `r = ±√(ρ² − lateral²)` in the arm's
+        // plane: the elbow's cosine is the same for both.
+        let r2 = (rho2 - lateral * lateral).max(0.0);
+        let cos_beta = (r2 + p.z * p.z - a2 * a2 - l3 * l3) / (2.0 * a2 * l3);
+        cos_beta.abs() <= 1.0 + 1e-6
+    }
+
+    /// `|det J|` (Yoshikawa's manipulability) of the tool point at `q`, whose tool pose is
+    /// `t_base_tool`, for an arm of the PUMA class, without the Jacobian: about the wrist centre
+    /// (the reference point does not change the determinant) the wrist's joints do not move
+    /// the centre, so `det J` is the position block's times the wrist's. The first is the
+    /// shoulder's lever times the planar elbow's, `r · a2 l3 sin β` (`r` the wrist centre's
+    /// distance from the first axis in the arm's plane, `√(ρ² − lateral²)`; `β = θ3 + ψ` the
+    /// elbow's bend from straight, `ψ = atan2(d4, a3)`, as in the IK); the second `sin θ5`.
+    /// `None` for an arm not of the PUMA class.
+    pub fn manipulability_at(&self, t_base_tool: &Isometry3<f64>, q: &JointVector) -> Option<f64> {
+        self.check_puma_structure().ok()?;
+        let dh = |i: usize| *self.links[i].dh();
+        let (_, p) = self.wrist_centre(t_base_tool);
+        let lateral = dh(1).d + dh(2).d;
+        let (a2, a3, d4) = (dh(1).a, dh(2).a, dh(3).d);
+        let r = (p.x * p.x + p.y * p.y - lateral * lateral).max(0.0).sqrt();
+        let beta = q[2] + dh(2).theta_offset + d4.atan2(a3);
+        let theta5 = q[4] + dh(4).theta_offset;
+        Some((r * a2 * a3.hypot(d4) * beta.sin() * theta5.sin()).abs())
+    }
+
     /// Checks that the DH table is of the PUMA class this IK solves.
     fn check_puma_structure(&self) -> Result<()> {
         let want_alpha = [FRAC_PI_2, 0.0, -FRAC_PI_2, FRAC_PI_2, -FRAC_PI_2];
@@ -567,6 +619,42 @@ mod tests {
                 assert!((a - b).norm() > 1e-3, "duplicate solutions");
             }
         }
+    }
+
+    /// The closed-form manipulability equals `|det J|` of the Jacobian (LU) over random
+    /// configurations, and `within_reach` holds wherever the IK has a solution and fails
+    /// wherever the wrist centre is moved out of the elbow's reach.
+    #[test]
+    fn manipulability_and_reach_agree_with_the_jacobian_and_the_ik() {
+        let arm = arm();
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let mut far = 0;
+        for _ in 0..2_000 {
+            let q = random_q(&arm, &mut rng);
+            let target = arm.t_base_tool(&q);
+            let lu = arm.jacobian(&q).determinant().abs();
+            let closed = arm.manipulability_at(&target, &q).unwrap();
+            assert!(
+                (closed - lu).abs() <= 1e-9 * lu.max(1e-3),
+                "{closed} vs {lu} at {q:?}"
+            );
+            assert!(arm.within_reach(&target));
+            // Moved 2 m along the base's x: out of reach, and the IK agrees.
+            let moved = Isometry3::translation(2.0, 0.0, 0.0) * target;
+            assert!(arm.ik(&moved, &q).unwrap().is_empty());
+            if !arm.within_reach(&moved) {
+                far += 1;
+            }
+        }
+        assert_eq!(far, 2_000);
+        // At the wrist singularity and with the elbow straight the determinant vanishes.
+        let mut q = JointVector::new(0.3, -0.4, 0.2, 0.1, 0.0, 0.5);
+        assert!(arm.manipulability_at(&arm.t_base_tool(&q), &q).unwrap() < 1e-12);
+        let dh2 = *arm.links[2].dh();
+        q[4] = 0.7;
+        q[2] = -dh2.theta_offset - arm.links[3].dh().d.atan2(dh2.a);
+        assert!(arm.manipulability_at(&arm.t_base_tool(&q), &q).unwrap() < 1e-12);
+        assert!(arm.jacobian(&q).determinant().abs() < 1e-9);
     }
 
     #[test]

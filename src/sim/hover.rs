@@ -16,8 +16,9 @@
 //! across the vehicle loads the roll axis, which only two vertical thrusters 2h apart
 //! control; along it, the two surge thrusters and the pitch axis). Among the candidates that
 //! reach, those within `max_thrust_utilisation` are preferred, and of them the one with the
-//! largest worst-case manipulability `min |det J(q)|` (Yoshikawa) wins (if none is within,
-//! the least utilised); a second, finer grid around it refines the choice. No candidate
+//! largest worst-case manipulability `min |det J(q)|` (Yoshikawa, in closed form for the
+//! PUMA class) wins, the less utilised of two within a millionth of each other (if none is
+//! within, the least utilised); a second, finer grid around it refines the choice. No candidate
 //! reaching the whole trajectory is an error that says how far the best got.
 
 use crate::arm::{Arm, JointVector};
@@ -127,18 +128,28 @@ struct Reach {
     utilisation: f64,
 }
 
+/// Manipulabilities within this fraction of each other are equal: the arm's first joint takes
+/// up a turn of the vehicle about the vertical, so headings apart by a multiple of the search's
+/// step reach the trajectory with the same manipulability but for round-off, and the thrust
+/// utilisation decides between them.
+const SAME_MANIPULABILITY: f64 = 1e-6;
+
 impl Reach {
-    /// Whether `self` is a better candidate than `other` (see the module docs).
+    /// Whether `self` is a better candidate than `other` (see the module docs): more samples
+    /// reached; then within the utilisation limit; then, within it, the larger manipulability
+    /// and on a tie the lower utilisation, beyond it the lower utilisation.
     fn beats(&self, other: &Reach, limit: f64) -> bool {
-        let key = |r: &Reach| {
-            let within = r.utilisation <= limit;
-            (
-                r.reached,
-                within,
-                if within { r.manipulability } else { -r.utilisation },
-            )
-        };
-        key(self).partial_cmp(&key(other)) == Some(std::cmp::Ordering::Greater)
+        let within = |r: &Reach| r.utilisation <= limit;
+        if (self.reached, within(self)) != (other.reached, within(other)) {
+            return (self.reached, within(self)) > (other.reached, within(other));
+        }
+        let tied = (self.manipulability - other.manipulability).abs()
+            <= SAME_MANIPULABILITY * self.manipulability.max(other.manipulability);
+        if within(self) && !tied {
+            self.manipulability > other.manipulability
+        } else {
+            self.utilisation < other.utilisation
+        }
     }
 
     /// Whether a branch at `self` (going on to all `n` samples) could still beat `bar`: its
@@ -148,7 +159,11 @@ impl Reach {
         match bar {
             Some(b) if b.reached == n => {
                 if b.utilisation <= limit {
-                    self.utilisation <= limit && self.manipulability > b.manipulability
+                    self.utilisation <= limit
+                        && (self.manipulability > b.manipulability
+                            || (self.utilisation < b.utilisation
+                                && b.manipulability - self.manipulability
+                                    <= SAME_MANIPULABILITY * b.manipulability))
                 } else {
                     self.utilisation < b.utilisation
                 }
@@ -182,6 +197,12 @@ fn utilisation(
     thrusters.utilisation(&tau)
 }
 
+/// `|det J|` at `q`, which reaches `t_base_tool`: in closed form ([`Arm::manipulability_at`]).
+fn manipulability(arm: &Arm, t_base_tool: &Isometry3<f64>, q: &JointVector) -> f64 {
+    arm.manipulability_at(t_base_tool, q)
+        .unwrap_or_else(|| arm.jacobian(q).determinant().abs())
+}
+
 /// Follows each IK branch of the first target along `targets` (world tool poses, with the
 /// environment's expected force on the tool) for the vehicle at `t_world_body`; the best
 /// branch. A branch is given up as soon as it cannot beat `bar` (the best candidate so far).
@@ -195,16 +216,21 @@ fn follow(
 ) -> Result<Option<Reach>> {
     let (n, limit) = (targets.len(), cfg.max_thrust_utilisation);
     let t_base_world = (t_world_body * arm.t_body_base()).inverse();
-    let Some((first, _)) = targets.first() else {
-        return Ok(None);
-    };
-    let starts = arm.ik(&(t_base_world * first), &JointVector::zeros())?;
-    if starts.is_empty() {
+    if targets.is_empty() {
         return Ok(None);
     }
     // The targets in the base frame and the thrust utilisation of each are the same for every
     // branch.
     let in_base: Vec<Isometry3<f64>> = targets.iter().map(|(t, _)| t_base_world * t).collect();
+    // Once a candidate has reached every sample, one with a sample out of the arm's reach
+    // cannot beat it: no branch needs following.
+    if bar.is_some_and(|b| b.reached == n) && !in_base.iter().all(|t| arm.within_reach(t)) {
+        return Ok(None);
+    }
+    let starts = arm.ik(&in_base[0], &JointVector::zeros())?;
+    if starts.is_empty() {
+        return Ok(None);
+    }
     let loads: Vec<f64> = targets
         .iter()
         .map(|(t, f)| utilisation(thrusters, t_world_body, &t.translation.vector, f))
@@ -215,7 +241,7 @@ fn follow(
         let mut r = Reach {
             q_start: *q0,
             reached: 1,
-            manipulability: arm.jacobian(&q).determinant().abs(),
+            manipulability: manipulability(arm, &in_base[0], &q),
             utilisation: loads[0],
         };
         for i in 1..n {
@@ -229,7 +255,7 @@ fn follow(
                 break;
             }
             q = next;
-            r.manipulability = r.manipulability.min(arm.jacobian(&q).determinant().abs());
+            r.manipulability = r.manipulability.min(manipulability(arm, &in_base[i], &q));
             r.utilisation = r.utilisation.max(loads[i]);
             r.reached += 1;
         }
