@@ -189,10 +189,15 @@ impl DriveFilter {
         let tolerance = 1e-3 * noise.rate;
         let first = self.state.is_none();
         let joints = self.state.get_or_insert_with(|| {
-            // The acceleration is unknown at the start (the first drive equation gives it); the
-            // drive model is trusted, its error learnt as it walks.
-            let p0 = Matrix3::from_diagonal(&Vector3::new(noise.rate.powi(2), 1e4, noise.torque.powi(2)));
-            std::array::from_fn(|i| (Vector3::new(qd[i], 0.0, 0.0), p0))
+            // The filter opens at the station held before the run: the joints at rest (the
+            // rate known to be zero, not the tachometer's noisy reading, at which the smoothed
+            // Coulomb friction is steepest) and the acceleration within a period's jerk of zero.
+            // Opened at the reading, with the acceleration left free, the first drive equation
+            // gave it with the friction 1–2 N·m off: a first `M_ez` 6–13 N·m off on the
+            // shoulder. The drive model is trusted, its error learnt as it walks.
+            let p0 =
+                Matrix3::from_diagonal(&Vector3::new(0.0, noise.jerk.powi(2) * dt, noise.torque.powi(2)));
+            [(Vector3::zeros(), p0); 6]
         });
         let mut acc = JointVector::zeros();
         for (i, (x, p)) in joints.iter_mut().enumerate() {
