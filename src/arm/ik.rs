@@ -57,6 +57,16 @@ impl IkSolutions {
     }
 }
 
+/// The shoulder and elbow of a PUMA-class arm: the wrist centre's offset from the arm's plane
+/// `d2 + d3`, the upper arm `a2`, the forearm to the wrist centre `l3 = √(a3² + d4²)` and its
+/// angle `ψ = atan2(d4, a3)` from link 3's x axis.
+struct Elbow {
+    lateral: f64,
+    a2: f64,
+    l3: f64,
+    psi: f64,
+}
+
 /// Tolerance on the angles of the DH table (rad) and on the lengths that must be zero (m).
 const STRUCTURE_TOL: f64 = 1e-9;
 /// Largest position error (m) and rotation error (rad) of a returned solution.
@@ -110,10 +120,7 @@ impl Arm {
         let off = |i: usize| l[i].dh().theta_offset;
         let (r06, pw) = self.wrist_centre(t_base_tool);
         let (px, py, pz) = (pw.x, pw.y, pw.z);
-        let lateral = dh(1).d + dh(2).d;
-        let (a2, a3, d4) = (dh(1).a, dh(2).a, dh(3).d);
-        let l3 = a3.hypot(d4);
-        let psi = d4.atan2(a3);
+        let Elbow { lateral, a2, l3, psi } = self.elbow();
 
         let mut out = IkSolutions {
             solutions: [JointVector::zeros(); 8],
@@ -376,10 +383,8 @@ impl Arm {
         if self.check_puma_structure().is_err() {
             return true;
         }
-        let dh = |i: usize| *self.links[i].dh();
         let (_, p) = self.wrist_centre(t_base_tool);
-        let lateral = dh(1).d + dh(2).d;
-        let (a2, l3) = (dh(1).a, dh(2).a.hypot(dh(3).d));
+        let Elbow { lateral, a2, l3, .. } = self.elbow();
         let rho2 = p.x * p.x + p.y * p.y;
         if rho2.sqrt() < lateral.abs() - 1e-9 {
             return false;
@@ -398,17 +403,30 @@ impl Arm {
     /// shoulder's lever times the planar elbow's, `r · a2 l3 sin β` (`r` the wrist centre's
     /// distance from the first axis in the arm's plane, `√(ρ² − lateral²)`; `β = θ3 + ψ` the
     /// elbow's bend from straight, `ψ = atan2(d4, a3)`, as in the IK); the second `sin θ5`.
-    /// `None` for an arm not of the PUMA class.
-    pub fn manipulability_at(&self, t_base_tool: &Isometry3<f64>, q: &JointVector) -> Option<f64> {
-        self.check_puma_structure().ok()?;
-        let dh = |i: usize| *self.links[i].dh();
+    ///
+    /// # Errors
+    /// [`Error::Input`] if the arm is not of the PUMA class (as [`Arm::ik`]).
+    pub fn manipulability_at(&self, t_base_tool: &Isometry3<f64>, q: &JointVector) -> Result<f64> {
+        self.check_puma_structure()?;
+        let off = |i: usize| self.links[i].dh().theta_offset;
         let (_, p) = self.wrist_centre(t_base_tool);
-        let lateral = dh(1).d + dh(2).d;
-        let (a2, a3, d4) = (dh(1).a, dh(2).a, dh(3).d);
+        let Elbow { lateral, a2, l3, psi } = self.elbow();
         let r = (p.x * p.x + p.y * p.y - lateral * lateral).max(0.0).sqrt();
-        let beta = q[2] + dh(2).theta_offset + d4.atan2(a3);
-        let theta5 = q[4] + dh(4).theta_offset;
-        Some((r * a2 * a3.hypot(d4) * beta.sin() * theta5.sin()).abs())
+        let beta = q[2] + off(2) + psi;
+        let theta5 = q[4] + off(4);
+        Ok((r * a2 * l3 * beta.sin() * theta5.sin()).abs())
+    }
+
+    /// The shoulder and elbow of a PUMA-class arm, from its DH table.
+    fn elbow(&self) -> Elbow {
+        let dh = |i: usize| *self.links[i].dh();
+        let (a3, d4) = (dh(2).a, dh(3).d);
+        Elbow {
+            lateral: dh(1).d + dh(2).d,
+            a2: dh(1).a,
+            l3: a3.hypot(d4),
+            psi: d4.atan2(a3),
+        }
     }
 
     /// Checks that the DH table is of the PUMA class this IK solves.

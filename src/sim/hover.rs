@@ -197,12 +197,6 @@ fn utilisation(
     thrusters.utilisation(&tau)
 }
 
-/// `|det J|` at `q`, which reaches `t_base_tool`: in closed form ([`Arm::manipulability_at`]).
-fn manipulability(arm: &Arm, t_base_tool: &Isometry3<f64>, q: &JointVector) -> f64 {
-    arm.manipulability_at(t_base_tool, q)
-        .unwrap_or_else(|| arm.jacobian(q).determinant().abs())
-}
-
 /// Follows each IK branch of the first target along `targets` (world tool poses, with the
 /// environment's expected force on the tool) for the vehicle at `t_world_body`; the best
 /// branch. A branch is given up as soon as it cannot beat `bar` (the best candidate so far).
@@ -241,7 +235,7 @@ fn follow(
         let mut r = Reach {
             q_start: *q0,
             reached: 1,
-            manipulability: manipulability(arm, &in_base[0], &q),
+            manipulability: arm.manipulability_at(&in_base[0], &q)?,
             utilisation: loads[0],
         };
         for i in 1..n {
@@ -255,7 +249,7 @@ fn follow(
                 break;
             }
             q = next;
-            r.manipulability = r.manipulability.min(manipulability(arm, &in_base[i], &q));
+            r.manipulability = r.manipulability.min(arm.manipulability_at(&in_base[i], &q)?);
             r.utilisation = r.utilisation.max(loads[i]);
             r.reached += 1;
         }
