@@ -213,6 +213,30 @@ impl Body {
             Drag::Cylinder(c) => c.wrench_on_body(vr),
         }
     }
+
+    /// The velocity relative to the water (body axes, m/s) at which the body, translating,
+    /// meets the drag `−f`: on each axis the root of Fossen's `(D_L + d_q |u|) u = f`, written
+    /// `2f / (D_L + √(D_L² + 4 d_q |f|))` (no cancellation for small `f`, and `√(f/d_q)` without
+    /// linear damping). `None` unless the drag is Fossen's with damping on every linear axis.
+    pub fn velocity_against_drag(&self, f: &Vector3<f64>) -> Option<Vector3<f64>> {
+        let Drag::Fossen {
+            linear, quadratic, ..
+        } = &self.drag
+        else {
+            return None;
+        };
+        let mut u = Vector3::zeros();
+        for i in 0..3 {
+            let (l, q) = (linear[i], quadratic[i]);
+            if l <= 0.0 && q <= 0.0 {
+                return None;
+            }
+            if f[i] != 0.0 {
+                u[i] = 2.0 * f[i] / (l + (l * l + 4.0 * q * f[i].abs()).sqrt());
+            }
+        }
+        Some(u)
+    }
 }
 
 #[cfg(test)]
@@ -329,5 +353,37 @@ mod tests {
             &c,
         );
         assert!(f.to_vector6().norm() < 1e-12);
+    }
+
+    /// The velocity found for a holding force meets, translating, exactly that drag — with
+    /// and without linear or quadratic damping, on either side, small and large.
+    #[test]
+    fn velocity_against_drag_inverts_the_fossen_drag() {
+        let body = |linear: f64, quadratic: f64| {
+            let drag = Drag::Fossen {
+                origin: Vector3::new(0.1, -0.2, 0.3),
+                linear: Vector6::new(linear, 2.0 * linear, 10.0 * linear, 1.0, 1.0, 1.0),
+                quadratic: Vector6::new(quadratic, 1.3 * quadratic, 2.4 * quadratic, 1.0, 1.0, 1.0),
+            };
+            Body::new(Inertia::ZERO, Inertia::ZERO, 0.0, Vector3::zeros(), drag)
+        };
+        for (linear, quadratic) in [(16.0, 221.0), (0.0, 221.0), (16.0, 0.0)] {
+            let b = body(linear, quadratic);
+            for f in [
+                Vector3::new(30.0, -25.0, 4.0),
+                Vector3::new(-1e-6, 2e-3, -0.5),
+                Vector3::zeros(),
+            ] {
+                let u = b.velocity_against_drag(&f).unwrap();
+                let drag = b.drag_on_body(&Motion::new(u, Vector3::zeros())).lin;
+                assert!(
+                    (drag + f).norm() <= 1e-12 * (1.0 + f.norm()),
+                    "{linear} {quadratic}: {u} {drag} {f}"
+                );
+            }
+        }
+        assert!(body(0.0, 0.0).velocity_against_drag(&Vector3::x()).is_none());
+        let cylinder = Body::new(Inertia::ZERO, Inertia::ZERO, 0.0, Vector3::zeros(), Drag::None);
+        assert!(cylinder.velocity_against_drag(&Vector3::x()).is_none());
     }
 }

@@ -517,6 +517,12 @@ impl Icu {
         self
     }
 
+    /// Whether the tool has touched in the approach (the identified force went over
+    /// `tare_until_n`), or the approach is over.
+    pub fn touched(&self) -> bool {
+        self.touched
+    }
+
     /// Eq. (1)–(12) for the measurements `m` of a control period `dt`, with `arm` the
     /// controller's model, `vt` its velocity terms at the measured `q`, `q̇` and the base motion
     /// `base` ([`Arm::velocity_terms`]), `drive` the joint accelerations and drive torques

@@ -41,7 +41,7 @@ use crate::error::{Error, Result};
 use crate::integrate::Integrator;
 use crate::mesh::TriangleMesh;
 use crate::model::UvmsModel;
-use crate::multibody::{Accelerations, Inputs, Multibody, State, ToolDamping};
+use crate::multibody::{Accelerations, GenVector, Inputs, Multibody, State, ToolDamping};
 use crate::plant::{Plant, PlantInput};
 use crate::spatial_algebra::Force;
 use crate::trajectory::{Phase, Trajectory};
@@ -386,24 +386,44 @@ pub fn simulate(
     let mut vc = VehicleControl::new(&cfg.vehicle, &h, thruster_lag);
     let mut nav = Navigation::new(&cfg.navigation, h.translation.vector, g);
 
-    // The station was held before the run: the drives hold the arm's static load and the
-    // thrusters the static wrench of the vehicle and the arm.
+    // The station was held before the run, in the current if there is one: the thrusters held
+    // the vehicle and the arm at rest against their weight, buoyancy and the water (the
+    // plant's static wrench), the drives the arm's static load as the controllers' model has
+    // it, and over the hold the stabilisation's integral and the controllers' estimate of the
+    // current had converged. Their fixed point: the current the closed loop's thrust gives,
+    // the arm's static load in that current (the open loop takes its drag), and the thrust
+    // left to the closed loop. Started from the model's wrench in still water, a current set
+    // the vehicle drifting at the start and the ICU took the arm's changing drag for a touch.
     let dt = 1.0 / cfg.control_rate_hz;
-    let at_rest = BaseMotion::on_vehicle(
-        arm,
-        &h.rotation,
-        &Vector6::zeros(),
-        &Vector6::zeros(),
-        g,
-        &Vector3::zeros(),
-    );
-    let zero = JointVector::zeros();
-    let static_id = arm.inverse_dynamics(&hover.q_start, &zero, &zero, &at_rest, None);
-    let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
+    let held = plant
+        .system
+        .inverse_dynamics(&plant.state, &GenVector::zeros(), &Force::ZERO)
+        .fixed_rows::<6>(0)
+        .into_owned();
     // At rest the accelerometers read the specific force `−g` (`C` axes).
     let f_rest = h.rotation.inverse() * Vector3::new(0.0, 0.0, -g);
-    let tau_v0 = vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0);
-    plant.thrusters.hold(&allocator.allocate(&tau_v0).thrusts)?;
+    let zero = JointVector::zeros();
+    let mut trim = Vector6::zeros();
+    let mut current = Vector3::zeros();
+    let static_in = |current: &Vector3<f64>| {
+        let at_rest =
+            BaseMotion::on_vehicle(arm, &h.rotation, &Vector6::zeros(), &Vector6::zeros(), g, current);
+        arm.inverse_dynamics(&hover.q_start, &zero, &zero, &at_rest, None)
+    };
+    let mut static_id = static_in(&current);
+    for _ in 0..HOLD_ITERATIONS {
+        let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
+        trim += held - vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0);
+        vc.trim(&trim);
+        let next = vc.current(&ctrl.vehicle, &h.rotation, &Vector3::zeros());
+        let moved = (next - current).norm();
+        current = next;
+        static_id = static_in(&current);
+        if moved < 1e-9 {
+            break;
+        }
+    }
+    plant.thrusters.hold(&allocator.allocate(&held).thrusts)?;
     let first_eval = plant.system.accelerations(
         &plant.state,
         &Inputs {
@@ -451,14 +471,9 @@ pub fn simulate(
         let meas = nav.update(sensors.read(t, &truth_prev), t, dt);
         let omega = meas.omega;
         let nu_est = Vector6::new(0.0, 0.0, 0.0, omega.x, omega.y, omega.z);
-        let base = BaseMotion::on_vehicle(
-            arm,
-            &meas.attitude,
-            &nu_est,
-            &Vector6::zeros(),
-            g,
-            &Vector3::zeros(),
-        );
+        // The sea current as the stabilisation feels it (still water until it does).
+        let current = vc.current(&ctrl.vehicle, &meas.attitude, &nav.velocity);
+        let base = BaseMotion::on_vehicle(arm, &meas.attitude, &nu_est, &Vector6::zeros(), g, &current);
         // The desired tool state.
         let s = trajectory
             .sample_at(clock)
@@ -525,6 +540,7 @@ pub fn simulate(
         } else {
             Force::ZERO
         };
+        vc.learn_current(!icu.touched());
         let tau_vehicle = vc.wrench(&meas, &nav, &ctrl.vehicle, g, &open, dt);
         let alloc = allocator.allocate(&tau_vehicle);
         if alloc.scale < 1.0 {
@@ -640,6 +656,10 @@ pub fn simulate(
         summary,
     })
 }
+
+/// Iterations of the held station's fixed point (the current's estimate moves by a third to
+/// a half of its last step in each, the arm's share of the water's force on the system).
+const HOLD_ITERATIONS: usize = 40;
 
 /// What the sensors report of the station held before the run (no vision fix yet), with the
 /// accelerometers reading `specific_force`.
