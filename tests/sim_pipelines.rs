@@ -14,13 +14,19 @@ fn repo(p: &str) -> PathBuf {
 }
 
 fn run(args: &[&str]) -> Output {
+    run_in(Path::new(env!("CARGO_MANIFEST_DIR")), args)
+}
+
+/// `uvms` with the working folder `dir`.
+fn run_in(dir: &Path, args: &[&str]) -> Output {
     std::process::Command::new(common::uvms_bin())
+        .current_dir(dir)
         .args(args)
         .output()
         .unwrap()
 }
 
-/// Runs a pipeline file; its summary.
+/// Runs a pipeline file (a relative path from the repository's folder); its summary.
 fn run_pipeline(pipeline: &Path, out: &Path) -> Value {
     let o = run(&[
         "--json",
@@ -51,7 +57,7 @@ fn bottle_run() -> &'static (PathBuf, Value) {
     RUN.get_or_init(|| {
         let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("sim_pipelines_bottle");
         let _ = std::fs::remove_dir_all(&out);
-        let s = run_pipeline(&repo("pipelines/bottle_cleaning.toml"), &out);
+        let s = run_pipeline(Path::new("pipelines/bottle_cleaning.toml"), &out);
         (out, s)
     })
 }
@@ -154,7 +160,21 @@ fn bottle_cleaning_end_to_end() {
         "{rows} rows for {simulated} s"
     );
     // The resolved pipeline reproduces the run: same seed, same figures.
-    let again = run_pipeline(&out.join("config.toml"), &dir.path().join("again"));
+    // From another working folder: the pipeline was named relative to the repository, and
+    // the resolved file names its inputs wherever it is read from.
+    let o = run_in(
+        dir.path(),
+        &[
+            "--json",
+            "--quiet",
+            "run",
+            out.join("config.toml").to_str().unwrap(),
+            "--out",
+            "again",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let again: Value = serde_json::from_slice(&o.stdout).unwrap();
     for key in [
         "force_max_n",
         "force_settled_mean_n",

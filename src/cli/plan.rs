@@ -73,7 +73,7 @@ fn apply_pattern(cfg: &mut PlanConfig, spec: &str) -> Result<()> {
         "raster" => PatternKind::Raster,
         "line" => PatternKind::Line,
         file if file.ends_with(".csv") || Path::new(file).is_file() => {
-            cfg.polyline.file = Some(PathBuf::from(file));
+            cfg.polyline.file = Some(super::sim::relative_to(None, Path::new(file)));
             PatternKind::Polyline
         }
         other => {

@@ -47,12 +47,16 @@ pub struct SimCommandConfig {
     pub frames: ScanFrames,
 }
 
-/// `path` relative to the folder of the file `base` (unless absolute).
+/// `path` relative to the folder of the file `base` (unless absolute), made absolute: the
+/// resolved configuration a command writes (`config.toml`) then names the same files wherever
+/// it is read from (a path relative to the working folder, read back relative to the output
+/// folder, named none).
 pub fn relative_to(base: Option<&Path>, path: &Path) -> PathBuf {
-    match base.and_then(Path::parent) {
+    let joined = match base.and_then(Path::parent) {
         Some(dir) if path.is_relative() => dir.join(path),
         _ => path.to_path_buf(),
-    }
+    };
+    std::path::absolute(&joined).unwrap_or(joined)
 }
 
 /// Resolves the configuration's paths against the folder of its file.
@@ -180,7 +184,7 @@ pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
     let mut cfg: SimCommandConfig = crate::config::load(args.config.as_deref())?;
     resolve_paths(&mut cfg.sim, args.config.as_deref());
     if let Some(s) = &args.surface {
-        cfg.sim.surface = Some(s.clone());
+        cfg.sim.surface = Some(relative_to(None, s));
     }
     let trajectory = Trajectory::read_csv(&args.trajectory)?;
     let mut inputs: Vec<&Path> = vec![&args.trajectory];
