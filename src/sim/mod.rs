@@ -221,7 +221,8 @@ pub struct SimConfig {
     /// Time simulated after the trajectory's end, s.
     pub tail_s: f64,
     /// From this long after the first contact the force counts as settled (the window of
-    /// `force_settled_mean_n` and `force_rms_error_n`), s.
+    /// `force_settled_mean_n` and `force_rms_error_n`), and this long after the path starts
+    /// the window of `force_overshoot_n` ends, s.
     pub settle_time_s: f64,
     /// Contact model.
     pub contact: ContactConfig,

@@ -178,8 +178,9 @@ pub struct Figures {
     pub force_settled_mean_n: f64,
     /// Largest true force along `k`, N.
     pub force_max_n: f64,
-    /// Largest true force along `k` in the transient, from the first contact until
-    /// `settle_time_s` after it: the overshoot of the force's step response, N (`force_max_n`
+    /// Largest true force along `k` in the transients, from the first contact until
+    /// `settle_time_s` after the path starts (the contact phase): the overshoot of the force's
+    /// rise in the dwell and of its response to the tool starting to slide, N (`force_max_n`
     /// also holds the peaks of the settled force's fluctuation).
     pub force_overshoot_n: f64,
     /// Largest magnitude of the true contact force (normal and tangential), N.
@@ -221,6 +222,8 @@ pub struct Recorder {
     setpoint: f64,
     settle_time: f64,
     first_contact: Option<f64>,
+    /// When the path (the contact phase) started after the first contact, s.
+    path_start: Option<f64>,
     force_max: f64,
     overshoot: f64,
     contact_force_max: f64,
@@ -245,6 +248,7 @@ impl Recorder {
             setpoint,
             settle_time,
             first_contact: None,
+            path_start: None,
             force_max: 0.0,
             overshoot: 0.0,
             contact_force_max: 0.0,
@@ -278,7 +282,10 @@ impl Recorder {
             if pressing && !o.in_contact {
                 self.lost += dt;
             }
-            if o.t < t1 + self.settle_time {
+            if o.phase == Phase::Contact && self.path_start.is_none() {
+                self.path_start = Some(o.t);
+            }
+            if self.path_start.is_none_or(|t2| o.t < t2 + self.settle_time) {
                 self.overshoot = self.overshoot.max(o.f_k_true);
             }
             if o.phase == Phase::Contact && o.t >= t1 + self.settle_time {
