@@ -50,6 +50,27 @@ fn variant(dir: &Path, extra: &str) -> PathBuf {
     p
 }
 
+/// The bottle pipeline with each of `extras` appended, run side by side: their `sim`
+/// summaries, in order.
+fn variants(extras: &[String]) -> Vec<Value> {
+    let dir = tempfile::tempdir().unwrap();
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = extras
+            .iter()
+            .enumerate()
+            .map(|(i, extra)| {
+                let d = dir.path().join(i.to_string());
+                scope.spawn(move || {
+                    std::fs::create_dir_all(&d).unwrap();
+                    let p = variant(&d, extra);
+                    run_pipeline(&p, &d.join("out"))["sim"].clone()
+                })
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    })
+}
+
 /// The committed bottle pipeline's run (the longest of these), made once for the tests that
 /// need it: its output folder and summary.
 fn bottle_run() -> &'static (PathBuf, Value) {
@@ -229,26 +250,11 @@ fn soil_sampling_end_to_end() {
 /// with the vehicle (‖e‖); without the force loop of eq. (14) the force is not held.
 #[test]
 fn ablations_are_worse_on_the_figure_their_block_protects() {
-    let dir = tempfile::tempdir().unwrap();
-    let runs: Vec<Value> = std::thread::scope(|scope| {
-        let handles: Vec<_> = [
-            "[sim.scenario]\nopen_loop = false",
-            "[sim.scenario]\ntrajectory_correction = false",
-            "[sim.scenario]\nforce_loop = false",
-        ]
-        .iter()
-        .enumerate()
-        .map(|(i, extra)| {
-            let d = dir.path().join(i.to_string());
-            scope.spawn(move || {
-                std::fs::create_dir_all(&d).unwrap();
-                let p = variant(&d, extra);
-                run_pipeline(&p, &d.join("out"))["sim"].clone()
-            })
-        })
-        .collect();
-        handles.into_iter().map(|h| h.join().unwrap()).collect()
-    });
+    let runs = variants(&[
+        "[sim.scenario]\nopen_loop = false".into(),
+        "[sim.scenario]\ntrajectory_correction = false".into(),
+        "[sim.scenario]\nforce_loop = false".into(),
+    ]);
     let f = |run: &Value, key: &str| run[key].as_f64().unwrap();
     let full = &bottle_run().1["sim"];
     let r = f(&runs[0], "auv_deviation_max_m");
@@ -275,26 +281,11 @@ fn ablations_are_worse_on_the_figure_their_block_protects() {
 /// reads as some 6 N·m of external moments and the force settles a newton low.
 #[test]
 fn a_sea_current_is_estimated_and_not_taken_for_contact() {
-    let dir = tempfile::tempdir().unwrap();
     let current = "[sim.scenario]\ncurrent_m_s = [0.3, 0.3, 0.0]";
-    let runs: Vec<Value> = std::thread::scope(|scope| {
-        let handles: Vec<_> = [
-            current.to_string(),
-            format!("{current}\n[sim.vehicle]\ncurrent_filter_s = 0.0"),
-        ]
-        .into_iter()
-        .enumerate()
-        .map(|(i, extra)| {
-            let d = dir.path().join(i.to_string());
-            scope.spawn(move || {
-                std::fs::create_dir_all(&d).unwrap();
-                let p = variant(&d, &extra);
-                run_pipeline(&p, &d.join("out"))["sim"].clone()
-            })
-        })
-        .collect();
-        handles.into_iter().map(|h| h.join().unwrap()).collect()
-    });
+    let runs = variants(&[
+        current.to_string(),
+        format!("{current}\n[sim.vehicle]\ncurrent_filter_s = 0.0"),
+    ]);
     let f = |run: &Value, key: &str| run[key].as_f64().unwrap();
     let (estimated, still) = (&runs[0], &runs[1]);
     let settled = f(estimated, "force_settled_mean_n");
