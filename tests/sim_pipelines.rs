@@ -116,12 +116,13 @@ fn bottle_cleaning_end_to_end() {
     assert_eq!(sim["contact_lost_s"].as_f64().unwrap(), 0.0);
     let mean = sim["force_settled_mean_n"].as_f64().unwrap();
     assert!((mean - 60.0).abs() <= 1.0, "settled mean {mean} N");
-    // The step response's peak and the run's largest force (the settled force's fluctuation
-    // under the vision noise too) within the seed's 85 N.
+    // The transients' peak within the goal of 66 N (61.4-64.8 N on seeds 1-7), and the run's
+    // largest force (the settled force's fluctuation under the vision noise too) within the
+    // seed's 85 N.
     let overshoot = sim["force_overshoot_n"].as_f64().unwrap();
     let max = sim["force_max_n"].as_f64().unwrap();
     assert!(
-        overshoot <= max && max <= 85.0,
+        overshoot <= 66.0 && max <= 85.0,
         "overshoot {overshoot} N, largest {max} N"
     );
     let e = sim["tool_deviation_max_m"].as_f64().unwrap();
@@ -277,7 +278,7 @@ fn ablations_are_worse_on_the_figure_their_block_protects() {
 /// A 0.42 m/s sea current across the bottle (`[0.3, 0.3, 0]` m/s, world): the controllers
 /// estimate it from the stabilisation's thrust, so the water's drag on the arm goes into the
 /// IDP, not into the identified contact — the still-water figures hold (95 % within
-/// 0.37-0.39 N·m on seeds 1-3). Assuming still water (`current_filter_s = 0`), the drag
+/// 0.36-0.37 N·m on seeds 1-3). Assuming still water (`current_filter_s = 0`), the drag
 /// reads as some 6 N·m of external moments and the force settles a newton low.
 #[test]
 fn a_sea_current_is_estimated_and_not_taken_for_contact() {

@@ -371,6 +371,12 @@ pub fn simulate(
     plant_model.environment.current = cfg.scenario.current_m_s;
     let ctrl_model = cfg.controller_model.apply(&plant_model);
     let ctrl = Multibody::new(&ctrl_model)?;
+    if cfg.vehicle.current_filter_s > 0.0 && ctrl.vehicle.velocity_against_drag(&Vector3::zeros()).is_none() {
+        return Err(Error::input(
+            "sim.vehicle.current_filter_s",
+            "the controllers' vehicle has no damping on some linear axis to estimate the current with (sim.controller_model.vehicle_damping_scale = 0, or a model without Fossen damping); set it to 0 to assume still water",
+        ));
+    }
     let arm = &ctrl.arm;
     let g = ctrl_model.environment.gravity;
     let allocator = Thrusters::new(&ctrl_model.thrusters)?;
@@ -412,17 +418,27 @@ pub fn simulate(
         arm.inverse_dynamics(&hover.q_start, &zero, &zero, &at_rest, None)
     };
     let mut static_id = static_in(&current);
+    let mut moved = f64::INFINITY;
     for _ in 0..HOLD_ITERATIONS {
         let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
         trim += held - vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0);
         vc.trim(&trim);
-        let next = vc.current(&ctrl.vehicle, &h.rotation, &Vector3::zeros());
-        let moved = (next - current).norm();
+        let next = vc.current(&ctrl.vehicle, &h.rotation);
+        moved = (next - current).norm();
         current = next;
         static_id = static_in(&current);
-        if moved < 1e-9 {
+        if moved < HOLD_TOLERANCE_M_S {
             break;
         }
+    }
+    if moved >= HOLD_TOLERANCE_M_S {
+        return Err(Error::failed(
+            "sim",
+            format!(
+                "the station held before the run has no equilibrium in the current: the controllers' estimate of it, [{:.3}, {:.3}, {:.3}] m/s, still moved by {moved:.1e} m/s after {HOLD_ITERATIONS} iterations (the arm's drag outweighs the vehicle's; [sim.vehicle] current_filter_s = 0 assumes still water)",
+                current.x, current.y, current.z
+            ),
+        ));
     }
     plant.thrusters.hold(&allocator.allocate(&held).thrusts)?;
     let first_eval = plant.system.accelerations(
@@ -473,7 +489,7 @@ pub fn simulate(
         let omega = meas.omega;
         let nu_est = Vector6::new(0.0, 0.0, 0.0, omega.x, omega.y, omega.z);
         // The sea current as the stabilisation feels it (still water until it does).
-        let current = vc.current(&ctrl.vehicle, &meas.attitude, &nav.velocity);
+        let current = vc.current(&ctrl.vehicle, &meas.attitude);
         let base = BaseMotion::on_vehicle(arm, &meas.attitude, &nu_est, &Vector6::zeros(), g, &current);
         // The desired tool state.
         let s = trajectory
@@ -659,8 +675,10 @@ pub fn simulate(
 }
 
 /// Iterations of the held station's fixed point (the current's estimate moves by a third to
-/// a half of its last step in each, the arm's share of the water's force on the system).
-const HOLD_ITERATIONS: usize = 40;
+/// a half of its last step in each, the arm's share of the water's force on the system), and
+/// the step below which it has settled, m/s.
+const HOLD_ITERATIONS: usize = 60;
+const HOLD_TOLERANCE_M_S: f64 = 1e-9;
 
 /// What the sensors report of the station held before the run (no vision fix yet), with the
 /// accelerometers reading `specific_force`.

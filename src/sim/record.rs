@@ -180,8 +180,9 @@ pub struct Figures {
     pub force_max_n: f64,
     /// Largest true force along `k` in the transients, from the first contact until
     /// `settle_time_s` after the path starts (the contact phase): the overshoot of the force's
-    /// rise in the dwell and of its response to the tool starting to slide, N (`force_max_n`
-    /// also holds the peaks of the settled force's fluctuation).
+    /// rise in the dwell and of its response to the tool starting to slide (to the run's end
+    /// if the path never starts), N (`force_max_n` also holds the peaks of the settled force's
+    /// fluctuation).
     pub force_overshoot_n: f64,
     /// Largest magnitude of the true contact force (normal and tangential), N.
     pub contact_force_max_n: f64,
@@ -572,6 +573,29 @@ mod tests {
             r: 0.0,
             attitude: 0.0,
         }
+    }
+
+    /// The overshoot's window runs from the first contact, through the dwell, until
+    /// `settle_time` after the path starts: the slide's start is in it, the settled force's
+    /// later peaks only in the largest force.
+    #[test]
+    fn overshoot_spans_the_dwell_and_the_slide_s_start() {
+        let mut rec = Recorder::new(60.0, 1.0);
+        let at = |t: f64, phase: Phase, f: f64| Observation {
+            phase,
+            f_k_true: f,
+            in_contact: phase != Phase::Approach,
+            ..observation(t, false, 0.0)
+        };
+        rec.observe(&at(0.0, Phase::Approach, 0.0));
+        rec.observe(&at(0.5, Phase::Dwell, 50.0));
+        rec.observe(&at(1.9, Phase::Dwell, 60.0));
+        rec.observe(&at(2.0, Phase::Contact, 61.0));
+        rec.observe(&at(2.9, Phase::Contact, 64.0));
+        rec.observe(&at(3.1, Phase::Contact, 70.0));
+        let f = rec.figures();
+        assert_eq!(f.force_overshoot_n, 64.0);
+        assert_eq!(f.force_max_n, 70.0);
     }
 
     /// The identification error's quantiles are taken over the periods in contact only; the

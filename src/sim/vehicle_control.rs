@@ -113,6 +113,8 @@ pub struct VehicleControl {
     holding: Vector3<f64>,
     /// Whether the low-pass takes the thrust in (the current is being learnt).
     learning: bool,
+    /// The current's estimate (world), m/s.
+    estimate: Vector3<f64>,
 }
 
 impl VehicleControl {
@@ -129,20 +131,21 @@ impl VehicleControl {
             open_loop_low_pass: None,
             holding: Vector3::zeros(),
             learning: true,
+            estimate: Vector3::zeros(),
         }
     }
 
     /// Sets the integral so that the closed loop, at no error, asks for `wrench` (`[F; M]`,
     /// `C` axes) — what it had converged to while the station was held before the run — and
     /// the current's estimate to what that linear part holds against. An axis without
-    /// integral gain keeps its integral at zero.
+    /// integral gain keeps its integral at zero (the loop then asks for less than `wrench`).
     pub fn trim(&mut self, wrench: &Vector6<f64>) {
         let c = &self.cfg;
         for i in 0..6 {
             let ki = if i < 3 { c.position_ki } else { c.attitude_ki };
             self.integral[i] = if ki > 0.0 { wrench[i] / ki } else { 0.0 };
         }
-        self.holding = self.integral.fixed_rows::<3>(0) * c.position_ki;
+        self.holding = wrench.fixed_rows::<3>(0).into_owned();
     }
 
     /// Whether the current is learnt from the thrust from now on (`true` at the start; the
@@ -151,23 +154,24 @@ impl VehicleControl {
         self.learning = on;
     }
 
-    /// The sea current the controllers assume (world axes, m/s), for the vehicle `vehicle`
-    /// (the controllers' model) at `attitude` moving at `velocity` (world): the relative
-    /// velocity at which its drag meets the low-passed linear thrust of the closed loop
-    /// ([`Body::velocity_against_drag`]), taken from its own velocity. Still water with
-    /// `current_filter_s = 0` or a vehicle without Fossen damping.
-    pub fn current(
-        &self,
-        vehicle: &Body,
-        attitude: &UnitQuaternion<f64>,
-        velocity: &Vector3<f64>,
-    ) -> Vector3<f64> {
+    /// The sea current the controllers assume (world axes, m/s) for the vehicle `vehicle`
+    /// (the controllers' model) at `attitude`: the water's velocity past the station, opposite
+    /// to the vehicle's velocity through the water at which its drag meets the low-passed
+    /// linear thrust of the closed loop ([`Body::velocity_against_drag`]). It is the flow past
+    /// the vehicle on average, as the IDP wants it: the IDP's base has no linear velocity of
+    /// its own (the controllers feed it the gyros' rates alone). While the current is learnt
+    /// the estimate follows the thrust; held, it stays as it was, in the world. Still water
+    /// with `current_filter_s = 0` or a vehicle without Fossen damping.
+    pub fn current(&mut self, vehicle: &Body, attitude: &UnitQuaternion<f64>) -> Vector3<f64> {
         if self.cfg.current_filter_s <= 0.0 {
             return Vector3::zeros();
         }
-        vehicle
-            .velocity_against_drag(&self.holding)
-            .map_or_else(Vector3::zeros, |u| velocity - attitude * u)
+        if self.learning {
+            self.estimate = vehicle
+                .velocity_against_drag(&self.holding)
+                .map_or_else(Vector3::zeros, |u| -(attitude * u));
+        }
+        self.estimate
     }
 
     /// The command that makes thrusters of time constant `τ_T` (held over the period) deliver
@@ -277,9 +281,10 @@ mod tests {
     }
 
     /// A stabilisation trimmed to hold its vehicle at rest against the drag of a current
-    /// reports that current (world axes, the vehicle turned); moving, it adds its own velocity.
-    /// While the current is not learnt the estimate stays as the thrust changes, and with
-    /// `current_filter_s = 0` the controllers assume still water.
+    /// reports that current (world axes, the vehicle turned), with or without integral gain.
+    /// While the current is not learnt the estimate stays, in the world, as the thrust changes
+    /// and the vehicle turns; learnt, it follows the thrust. With `current_filter_s = 0` the
+    /// controllers assume still water.
     #[test]
     fn the_trimmed_thrust_gives_the_current_back() {
         use crate::spatial_algebra::Motion;
@@ -293,17 +298,22 @@ mod tests {
         let mut holding = Vector6::zeros();
         holding.fixed_rows_mut::<3>(0).copy_from(&-drag.lin);
         let hover = Isometry3::from_parts(Vector3::zeros().into(), attitude);
-        let mut vc = VehicleControl::new(&VehicleControlConfig::default(), &hover, 0.2);
-        assert_eq!(
-            vc.current(&vehicle, &attitude, &Vector3::zeros()),
-            Vector3::zeros()
-        );
-        vc.trim(&holding);
-        let at_rest = vc.current(&vehicle, &attitude, &Vector3::zeros());
+        let trimmed = |cfg: &VehicleControlConfig| {
+            let mut vc = VehicleControl::new(cfg, &hover, 0.2);
+            assert_eq!(vc.current(&vehicle, &attitude), Vector3::zeros());
+            vc.trim(&holding);
+            vc
+        };
+        let cfg = VehicleControlConfig::default();
+        let mut vc = trimmed(&cfg);
+        let at_rest = vc.current(&vehicle, &attitude);
         assert!((at_rest - current).norm() < 1e-12, "{at_rest}");
-        let v = Vector3::new(0.01, 0.02, -0.01);
-        assert!((vc.current(&vehicle, &attitude, &v) - (current + v)).norm() < 1e-12);
-        // A second off station: the closed loop's thrust changes.
+        let no_integral = VehicleControlConfig {
+            position_ki: 0.0,
+            ..cfg
+        };
+        assert!((trimmed(&no_integral).current(&vehicle, &attitude) - current).norm() < 1e-12);
+        // A decimetre off station: the closed loop's thrust changes.
         let nav = Navigation::new(&Default::default(), Vector3::new(0.1, 0.0, 0.0), 9.81);
         let m = Measurements {
             q: crate::arm::JointVector::zeros(),
@@ -315,25 +325,22 @@ mod tests {
             position: Vector3::new(0.1, 0.0, 0.0),
             position_time: 0.0,
         };
+        let turned = UnitQuaternion::from_euler_angles(0.0, 0.0, 0.3) * attitude;
         let after_a_second = |learn: bool| {
             let mut vc = vc.clone();
             vc.learn_current(learn);
             for _ in 0..1000 {
                 vc.wrench(&m, &nav, &vehicle, 9.81, &Force::ZERO, 1e-3);
             }
-            vc.current(&vehicle, &attitude, &Vector3::zeros())
+            vc.current(&vehicle, &turned)
         };
         assert_eq!(after_a_second(false), at_rest);
         assert!((after_a_second(true) - at_rest).norm() > 0.01);
         let still = VehicleControlConfig {
             current_filter_s: 0.0,
-            ..VehicleControlConfig::default()
+            ..cfg
         };
-        let mut vc = VehicleControl::new(&still, &hover, 0.2);
-        vc.trim(&holding);
-        assert_eq!(
-            vc.current(&vehicle, &attitude, &Vector3::zeros()),
-            Vector3::zeros()
-        );
+        assert_eq!(trimmed(&still).current(&vehicle, &attitude), Vector3::zeros());
+        assert_eq!(vc.current(&vehicle, &attitude), at_rest);
     }
 }

@@ -173,7 +173,8 @@ impl Default for SeabedConfig {
 pub struct ObjectConfig {
     /// A reference mesh (PLY) to use instead of the generated bottle, in its own model frame,
     /// metres; it is laid with its `+z` up and its `+x` at `yaw_deg`. A relative path is taken
-    /// from the current folder. When absent, the bottle of `[object.bottle]` is generated.
+    /// from the current folder (the resolved configuration names it by absolute path). When
+    /// absent, the bottle of `[object.bottle]` is generated.
     pub reference: Option<std::path::PathBuf>,
     /// Heading of the model's `+x` axis (base to cap), degrees from north towards east; drawn
     /// from the seed when absent.
@@ -476,6 +477,8 @@ impl SynthConfig {
             SceneKind::Bottle => 4,
             SceneKind::Sediment => 0,
         });
+        // Named by absolute path, so that the written configuration finds it from any folder.
+        r.object.reference = r.object.reference.map(|p| std::path::absolute(&p).unwrap_or(p));
         r
     }
 }
