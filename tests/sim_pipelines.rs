@@ -306,7 +306,7 @@ fn a_sea_current_is_estimated_and_not_taken_for_contact() {
 /// The seed's bottle figures in the seed's own conditions: its simulation states no sensor
 /// noise, and with every sensor noise-free (the encoders' resolution and the vision fix's
 /// 0.25 s delay kept) the joint moments are identified within the seed's 0.5 N·m at every
-/// control period in contact (0.47 N·m at most, on the second joint as the tool starts to
+/// control period in contact (0.45 N·m at most, on the second joint as the tool starts to
 /// slide: the controller's 2 % heavier links), and the tool keeps within the 3 mm goal. With
 /// the default noise these are the figures the sensors' noise moves (see the README).
 #[test]
