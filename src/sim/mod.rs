@@ -488,7 +488,7 @@ pub fn simulate(
         let meas = nav.update(sensors.read(t, &truth_prev), t, dt);
         let omega = meas.omega;
         let nu_est = Vector6::new(0.0, 0.0, 0.0, omega.x, omega.y, omega.z);
-        // The sea current as the stabilisation feels it (still water until it does).
+        // The sea current as the stabilisation has felt it (learnt until the touch, then held).
         let current = vc.current(&ctrl.vehicle, &meas.attitude);
         let base = BaseMotion::on_vehicle(arm, &meas.attitude, &nu_est, &Vector6::zeros(), g, &current);
         // The desired tool state.
