@@ -421,7 +421,7 @@ pub fn simulate(
     let mut moved = f64::INFINITY;
     for _ in 0..HOLD_ITERATIONS {
         let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
-        trim += held - vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0);
+        trim += (held - vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0)) * 0.5;
         vc.trim(&trim);
         let next = vc.current(&ctrl.vehicle, &h.rotation);
         moved = (next - current).norm();
@@ -674,9 +674,11 @@ pub fn simulate(
     })
 }
 
-/// Iterations of the held station's fixed point (the current's estimate moves by a third to
-/// a half of its last step in each, the arm's share of the water's force on the system), and
-/// the step below which it has settled, m/s.
+/// Iterations of the held station's fixed point, and the step below which it has settled, m/s.
+/// Each iteration takes half the thrust's residual: the full residual overshoots by the arm's
+/// share of the water's force on the system (more estimated current, more of the arm's drag in
+/// the open loop, less thrust left to the closed loop), and in a vertical current, across the
+/// arm's links, that share is about the vehicle's own and the plain iteration swung.
 const HOLD_ITERATIONS: usize = 60;
 const HOLD_TOLERANCE_M_S: f64 = 1e-9;
 
