@@ -375,6 +375,13 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         !dir.path().join("o2").exists(),
         "a bad value of the simulation left files"
     );
+    // A controllers' vehicle without damping cannot estimate the current: found early too.
+    let p4 = variant(dir.path(), "[sim.controller_model]\nvehicle_damping_scale = 0.0");
+    let o4 = dir.path().join("o4");
+    let o = run(&["run", p4.to_str().unwrap(), "--out", o4.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("vehicle_damping_scale"));
+    assert!(!o4.exists(), "a bad controller model left files");
     let p3 = variant(dir.path(), "");
     let text = std::fs::read_to_string(&p3)
         .unwrap()

@@ -309,7 +309,14 @@ impl SimConfig {
         self.joints.validate()?;
         self.vehicle.validate()?;
         self.hover.validate()?;
-        self.controller_model.validate()
+        self.controller_model.validate()?;
+        if self.vehicle.current_filter_s > 0.0 && self.controller_model.vehicle_damping_scale == 0.0 {
+            return Err(Error::input(
+                "sim.controller_model.vehicle_damping_scale",
+                "must be positive for the controllers to estimate the current from their vehicle's drag (or set sim.vehicle.current_filter_s = 0)",
+            ));
+        }
+        Ok(())
     }
 }
 
