@@ -5,7 +5,7 @@
 
 use crate::error::{Error, Result};
 use serde::de::DeserializeOwned;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Parses a configuration from TOML text; `origin` names the text in errors (usually the path).
 ///
@@ -67,6 +67,18 @@ pub fn non_negative(what: &str, v: f64) -> Result<()> {
             format!("must be a finite number ≥ 0, got {v}"),
         ))
     }
+}
+
+/// `path` relative to the folder of the file `base` (unless absolute), made absolute: the
+/// resolved configuration a command writes (`config.toml`) then names the same files wherever
+/// it is read from (a path relative to the working folder, read back relative to the output
+/// folder, named none).
+pub fn relative_to(base: Option<&Path>, path: &Path) -> PathBuf {
+    let joined = match base.and_then(Path::parent) {
+        Some(dir) if path.is_relative() => dir.join(path),
+        _ => path.to_path_buf(),
+    };
+    std::path::absolute(&joined).unwrap_or(joined)
 }
 
 #[cfg(test)]

@@ -73,7 +73,7 @@ fn apply_pattern(cfg: &mut PlanConfig, spec: &str) -> Result<()> {
         "raster" => PatternKind::Raster,
         "line" => PatternKind::Line,
         file if file.ends_with(".csv") || Path::new(file).is_file() => {
-            cfg.polyline.file = Some(super::sim::relative_to(None, Path::new(file)));
+            cfg.polyline.file = Some(crate::config::relative_to(None, Path::new(file)));
             PatternKind::Polyline
         }
         other => {
@@ -145,7 +145,7 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
         .polyline
         .file
         .as_deref()
-        .map(|f| super::sim::relative_to(args.config.as_deref(), f));
+        .map(|f| crate::config::relative_to(args.config.as_deref(), f));
     if let Some(p) = &args.pattern {
         apply_pattern(&mut cfg.plan, p)?;
     }

@@ -10,8 +10,9 @@
 //! nests each stage's summary under its name (`check`, `plan`, `sim`) with the stage timings.
 
 use super::plan::{PlanCommandConfig, PlanInputs, plan_stage};
-use super::sim::{relative_to, resolve_paths, sim_stage};
+use super::sim::{resolve_paths, sim_stage};
 use super::{Ctx, Report};
+use crate::config::relative_to;
 use crate::error::{Error, Result};
 use crate::output::OutDir;
 use crate::perception::PerceptionConfig;

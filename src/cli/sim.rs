@@ -8,6 +8,7 @@
 //! as SVG and PNG), `summary.json` and `config.toml`.
 
 use super::{Ctx, Report};
+use crate::config::relative_to;
 use crate::error::{Error, Result};
 use crate::frames::ScanFrames;
 use crate::io::ply::read_mesh;
@@ -45,18 +46,6 @@ pub struct SimCommandConfig {
     pub sim: SimConfig,
     /// Where the scan was taken from (to map a scan-frame surface into the world).
     pub frames: ScanFrames,
-}
-
-/// `path` relative to the folder of the file `base` (unless absolute), made absolute: the
-/// resolved configuration a command writes (`config.toml`) then names the same files wherever
-/// it is read from (a path relative to the working folder, read back relative to the output
-/// folder, named none).
-pub fn relative_to(base: Option<&Path>, path: &Path) -> PathBuf {
-    let joined = match base.and_then(Path::parent) {
-        Some(dir) if path.is_relative() => dir.join(path),
-        _ => path.to_path_buf(),
-    };
-    std::path::absolute(&joined).unwrap_or(joined)
 }
 
 /// Resolves the configuration's paths against the folder of its file.

@@ -478,7 +478,7 @@ impl SynthConfig {
             SceneKind::Sediment => 0,
         });
         // Named by absolute path, so that the written configuration finds it from any folder.
-        r.object.reference = r.object.reference.map(|p| std::path::absolute(&p).unwrap_or(p));
+        r.object.reference = r.object.reference.map(|p| crate::config::relative_to(None, &p));
         r
     }
 }
