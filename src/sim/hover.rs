@@ -153,23 +153,11 @@ impl Reach {
     }
 
     /// Whether a branch at `self` (going on to all `n` samples) could still beat `bar`: its
-    /// manipulability only falls and its utilisation only grows as it goes on, so once it
-    /// cannot beat a `bar` that reached every sample, following it further changes nothing.
+    /// manipulability only falls and its utilisation only grows as it goes on, so once it,
+    /// reaching every sample as it is, does not beat a `bar` that reached every sample,
+    /// following it further changes nothing.
     fn can_beat(&self, bar: Option<&Reach>, n: usize, limit: f64) -> bool {
-        match bar {
-            Some(b) if b.reached == n => {
-                if b.utilisation <= limit {
-                    self.utilisation <= limit
-                        && (self.manipulability > b.manipulability
-                            || (self.utilisation < b.utilisation
-                                && b.manipulability - self.manipulability
-                                    <= SAME_MANIPULABILITY * b.manipulability))
-                } else {
-                    self.utilisation < b.utilisation
-                }
-            }
-            _ => true,
-        }
+        bar.is_none_or(|b| b.reached < n || Reach { reached: n, ..*self }.beats(b, limit))
     }
 }
 
