@@ -116,7 +116,6 @@ impl Arm {
             ));
         }
         let l = &self.links;
-        let dh = |i: usize| *l[i].dh();
         let off = |i: usize| l[i].dh().theta_offset;
         let (r06, pw) = self.wrist_centre(t_base_tool);
         let (px, py, pz) = (pw.x, pw.y, pw.z);
@@ -133,7 +132,9 @@ impl Arm {
         }
         let phi = py.atan2(px);
         let asn = (lateral / rho).clamp(-1.0, 1.0).asin();
-        let rx = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), -dh(5).alpha).into_inner();
+        // Rx(−α6), from the link's own sine and cosine.
+        let (sa6, ca6) = (l[5].sin_alpha, l[5].cos_alpha);
+        let rx = Matrix3::new(1.0, 0.0, 0.0, 0.0, ca6, sa6, 0.0, -sa6, ca6);
         // The shoulder solutions θ1 with the wrist centre's reach `r` in the arm's plane and the
         // elbow's cosine, and where each one's shoulder–elbow pairs (raw q1..q3) go in the order
         // of the analytic solutions (none for a shoulder the elbow cannot reach).
@@ -368,8 +369,8 @@ impl Arm {
         let dh = |i: usize| *self.links[i].dh();
         let t06 = t_base_tool * self.t_flange_tool.inverse();
         let r06 = t06.rotation.to_rotation_matrix().into_inner();
-        let (s6a, c6a) = dh(5).alpha.sin_cos();
-        let z5 = r06 * Vector3::new(0.0, s6a, c6a);
+        let l6 = &self.links[5];
+        let z5 = r06 * Vector3::new(0.0, l6.sin_alpha, l6.cos_alpha);
         let pw = t06.translation.vector - z5 * dh(5).d - r06.column(0) * dh(5).a;
         (r06, Vector3::new(pw.x, pw.y, pw.z - dh(0).d))
     }
