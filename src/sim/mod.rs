@@ -398,7 +398,8 @@ pub fn simulate(
     let units = &ctrl_model.thrusters.units;
     let thruster_lag = units.iter().map(|u| u.time_constant).sum::<f64>() / units.len().max(1) as f64;
     let mut vc = VehicleControl::new(&cfg.vehicle, &h, thruster_lag);
-    let mut nav = Navigation::new(&cfg.navigation, h.translation.vector, g);
+    let dt = 1.0 / cfg.control_rate_hz;
+    let mut nav = Navigation::new(&cfg.navigation, &cfg.sensors, h.translation.vector, g, dt);
 
     // The station was held before the run, in the current if there is one: the thrusters held
     // the vehicle and the arm at rest against their weight, buoyancy and the water (the
@@ -408,7 +409,6 @@ pub fn simulate(
     // the arm's static load in that current (the open loop takes its drag), and the thrust
     // left to the closed loop. Started from the model's wrench in still water, a current set
     // the vehicle drifting at the start and the ICU took the arm's changing drag for a touch.
-    let dt = 1.0 / cfg.control_rate_hz;
     let held = plant
         .system
         .inverse_dynamics(&plant.state, &GenVector::zeros(), &Force::ZERO)

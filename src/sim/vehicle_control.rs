@@ -314,7 +314,13 @@ mod tests {
         };
         assert!((trimmed(&no_integral).current(&vehicle, &attitude) - current).norm() < 1e-12);
         // A decimetre off station: the closed loop's thrust changes.
-        let nav = Navigation::new(&Default::default(), Vector3::new(0.1, 0.0, 0.0), 9.81);
+        let nav = Navigation::new(
+            &Default::default(),
+            &Default::default(),
+            Vector3::new(0.1, 0.0, 0.0),
+            9.81,
+            1e-3,
+        );
         let m = Measurements {
             q: crate::arm::JointVector::zeros(),
             qd: crate::arm::JointVector::zeros(),
