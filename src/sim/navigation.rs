@@ -465,11 +465,11 @@ mod tests {
     }
 
     /// A vehicle at rest, exact sensors, and the vehicle moved by 1 cm in an instant that the
-    /// accelerometers do not see (as a fix's offset would): each fix's correction reaches the
-    /// estimate in even steps over `correction_s`, never at once — and at once with
+    /// accelerometers do not see (as a fix's offset would): the fixes' corrections reach the
+    /// estimate gradually over `correction_s`, never at once — and at once with
     /// `correction_s = 0`, the same corrections in all.
     #[test]
-    fn a_fix_corrects_the_position_evenly_over_correction_s() {
+    fn the_fixes_corrections_pass_gradually_not_at_once() {
         let exact = SensorConfig {
             accelerometer_noise_m_s2: 0.0,
             accelerometer_bias_m_s2: 0.0,
@@ -499,7 +499,7 @@ mod tests {
         let (spread, x_spread) = run(0.3);
         let (at_once, x_at_once) = run(0.0);
         // The first fix's correction is 0.19 × 1 cm plus its velocity's part carried over
-        // the delay, about 2.5 mm: at once one step, spread over 300 periods far less.
+        // the delay, about 2.5 mm: at once one step, passed over 300 periods far less.
         assert!(at_once > 2e-3, "{at_once}");
         assert!(spread < at_once / 50.0, "{spread} vs {at_once}");
         // After 20 s the estimate has come to the vehicle, the same way either way.
