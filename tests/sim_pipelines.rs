@@ -233,7 +233,7 @@ fn soil_sampling_end_to_end() {
     // normal reaction and the ripples' slopes (94-96 N on seeds 1-3).
     let force = f("contact_force_max_n");
     assert!((50.0..=140.0).contains(&force), "largest contact force {force} N");
-    // The identification in contact (median 0.21-0.23, largest 1.0-1.3 N·m on seeds 1-3; the
+    // The identification in contact (median 0.18-0.20, largest 0.8-1.1 N·m on seeds 1-3; the
     // largest 8.5-17 N·m while the immersion was measured to the closest surface point).
     let (median, max) = (
         f("moment_id_error_contact_median_nm"),
