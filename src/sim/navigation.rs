@@ -109,7 +109,7 @@ pub struct Navigation {
     gravity: Vector3<f64>,
     /// The accelerometers' deviation at a reading (m/s²) and the fixes' per coordinate (m).
     noise: (f64, f64),
-    /// The filtered attitude (none before the first measurement).
+    /// The filtered attitude (none before the levelling or the first measurement).
     attitude: Option<UnitQuaternion<f64>>,
     /// Estimated position of `C`'s origin (world), m, with the corrections passed on so far.
     pub position: Vector3<f64>,
