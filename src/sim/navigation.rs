@@ -124,8 +124,6 @@ pub struct Navigation {
     /// Covariance of one world axis's `(position, velocity, bias)` at the latest fix's instant
     /// (the same for the three axes).
     covariance: Matrix3<f64>,
-    /// The control period the accelerometers are read at, s.
-    period: f64,
     /// Past estimates (time, position, velocity) not older than the latest fix.
     history: VecDeque<(f64, Vector3<f64>, Vector3<f64>)>,
     last_fix: f64,
@@ -154,7 +152,6 @@ impl Navigation {
             velocity: Vector3::zeros(),
             bias: Vector3::zeros(),
             covariance: Matrix3::zeros(),
-            period: dt,
             history: VecDeque::new(),
             last_fix: f64::NEG_INFINITY,
         };
@@ -163,7 +160,7 @@ impl Navigation {
         let interval = 1.0 / sensors.vision_rate_hz;
         for _ in 0..100_000 {
             let before = nav.covariance;
-            nav.predict_and_update(interval);
+            nav.predict_and_update(interval, dt);
             if (nav.covariance - before).amax() <= 1e-12 * nav.covariance.amax() {
                 break;
             }
@@ -189,7 +186,6 @@ impl Navigation {
         let attitude = predicted.slerp(&m.attitude, lag_gain(dt, self.cfg.attitude_filter_s));
         self.attitude = Some(attitude);
         m.attitude = attitude;
-        self.period = dt;
         // Dead reckoning.
         let a = attitude * (m.specific_force - self.bias) + self.gravity;
         self.estimate += self.velocity * dt + a * (0.5 * dt * dt);
@@ -203,7 +199,7 @@ impl Navigation {
                     self.history.pop_front();
                 }
                 if let Some(&(tf, pf, _)) = self.history.front() {
-                    let gain = self.predict_and_update(m.position_time - self.last_fix);
+                    let gain = self.predict_and_update(m.position_time - self.last_fix, dt);
                     let e = m.position - pf;
                     // The correction of (position, velocity, world bias) at `tf`, and what it
                     // becomes `τ` later: `(δp + δv τ − δb τ²/2, δv − δb τ)`.
@@ -239,7 +235,8 @@ impl Navigation {
     }
 
     /// The Kalman gain of a fix `span` seconds after the last (per axis, of the residual on
-    /// `(position, velocity, world bias)`), with the covariance moved to the fix and updated.
+    /// `(position, velocity, world bias)`), with the covariance moved to the fix and updated;
+    /// the accelerometers are read every `dt` seconds.
     ///
     /// Over `T` the state moves as `p += v T − b T²/2`, `v −= b T` (the world bias `b` is
     /// subtracted from the acceleration), with the accelerometers' white noise of intensity
@@ -248,11 +245,11 @@ impl Navigation {
     /// ```text
     /// Q = q_a [T³/3 T²/2 0; T²/2 T 0; 0 0 0] + q_b [T⁵/20 T⁴/8 −T³/6; T⁴/8 T³/3 −T²/2; −T³/6 −T²/2 T]
     /// ```
-    fn predict_and_update(&mut self, span: f64) -> Vector3<f64> {
+    fn predict_and_update(&mut self, span: f64, dt: f64) -> Vector3<f64> {
         let t = span.max(0.0);
         let (t2, t3) = (t * t, t * t * t);
         let f = Matrix3::new(1.0, t, -0.5 * t2, 0.0, 1.0, -t, 0.0, 0.0, 1.0);
-        let qa = self.noise.0.powi(2) * self.period;
+        let qa = self.noise.0.powi(2) * dt;
         let qb = self.cfg.accelerometer_bias_walk.powi(2);
         let q = Matrix3::new(t3 / 3.0, t2 / 2.0, 0.0, t2 / 2.0, t, 0.0, 0.0, 0.0, 0.0) * qa
             + Matrix3::new(
@@ -354,7 +351,7 @@ mod tests {
             1e-3,
         );
         assert!((nav.covariance[(0, 0)] / 1.936_134_64e-7 - 1.0).abs() < 1e-5);
-        let k = nav.predict_and_update(0.1);
+        let k = nav.predict_and_update(0.1, 1e-3);
         let expected = Vector3::new(0.193_613_46, 0.207_970_01, -0.028_396_95);
         assert!((k - expected).amax() < 1e-6, "{k} vs {expected}");
         assert!((nav.covariance[(0, 0)] / 1.936_134_64e-7 - 1.0).abs() < 1e-5);
@@ -403,7 +400,7 @@ mod tests {
                         .iter()
                         .rposition(|s| s.0 <= m.position_time + 1e-12)
                         .unwrap();
-                    let k_fix = twin.predict_and_update(m.position_time - last_fix);
+                    let k_fix = twin.predict_and_update(m.position_time - last_fix, dt);
                     let e = m.position - states[i].1;
                     let (mut pf, mut vf) = (states[i].1 + e * k_fix.x, states[i].2 + e * k_fix.y);
                     bias += e * k_fix.z;
