@@ -462,12 +462,8 @@ pub fn simulate(
         specific_force: f_rest,
         ..truth_prev
     };
-    let levelling = (cfg.navigation.levelling_s * cfg.control_rate_hz)
-        .round()
-        .max(1.0) as usize;
-    let f_mean = (0..levelling).fold(Vector3::zeros(), |acc, _| acc + sensors.accelerometers(&at_rest))
-        / levelling as f64;
-    nav.level(&f_mean, &h.rotation);
+    let levelling = (cfg.navigation.levelling_s * cfg.control_rate_hz).round() as usize;
+    nav.level(&sensors.accelerometers_mean(&at_rest, levelling), &h.rotation);
 
     let force_setpoint = trajectory.samples.iter().map(|s| s.force).fold(0.0, f64::max);
     let log_every = ((cfg.control_rate_hz / cfg.log_rate_hz).round() as usize).max(1);

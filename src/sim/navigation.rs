@@ -295,17 +295,11 @@ mod tests {
         }
     }
 
-    /// The filter levelled on `n` readings of `sensors` at rest.
-    fn levelled(
-        cfg: &NavigationConfig,
-        assumed: &SensorConfig,
-        sensors: &mut Sensors,
-        n: usize,
-    ) -> Navigation {
+    /// The filter levelled on 10 s of `sensors` at rest at 1 kHz.
+    fn levelled(cfg: &NavigationConfig, assumed: &SensorConfig, sensors: &mut Sensors) -> Navigation {
         let rest = at_rest(Vector3::zeros());
         let mut nav = Navigation::new(cfg, assumed, Vector3::zeros(), 9.81, 1e-3);
-        let mean = (0..n).fold(Vector3::zeros(), |acc, _| acc + sensors.accelerometers(&rest)) / n as f64;
-        nav.level(&mean, &rest.attitude);
+        nav.level(&sensors.accelerometers_mean(&rest, 10_000), &rest.attitude);
         nav
     }
 
@@ -315,7 +309,7 @@ mod tests {
     fn estimate_tracks_the_vehicle_despite_the_delayed_fix() {
         let cfg = SensorConfig::default();
         let mut sensors = Sensors::new(&cfg, 3, Vector3::zeros());
-        let mut nav = levelled(&NavigationConfig::default(), &cfg, &mut sensors, 10_000);
+        let mut nav = levelled(&NavigationConfig::default(), &cfg, &mut sensors);
         let (amp, w) = (0.02, 2.0 * std::f64::consts::PI * 0.7);
         let dt = 1e-3;
         let at = |t: f64| Truth {
@@ -438,7 +432,7 @@ mod tests {
             let truth = at_rest(Vector3::zeros());
             for seed in 1..=5 {
                 let mut sensors = Sensors::new(&sensors_cfg, seed, Vector3::zeros());
-                let mut nav = levelled(&NavigationConfig::default(), &assumed, &mut sensors, 10_000);
+                let mut nav = levelled(&NavigationConfig::default(), &assumed, &mut sensors);
                 let mut last_fix = nav.last_fix;
                 for k in 0..120_000 {
                     let t = k as f64 * dt;
@@ -481,7 +475,7 @@ mod tests {
             };
             let mut sensors = Sensors::new(&exact, 1, Vector3::zeros());
             // The filter assumes the default sensors' noise.
-            let mut nav = levelled(&cfg, &SensorConfig::default(), &mut sensors, 10_000);
+            let mut nav = levelled(&cfg, &SensorConfig::default(), &mut sensors);
             let mut last = nav.position;
             let mut biggest_step = 0.0_f64;
             for k in 0..30_000 {

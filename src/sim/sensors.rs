@@ -165,10 +165,17 @@ impl Sensors {
         }
     }
 
-    /// Reads the accelerometers alone (as at the station held before the run).
-    pub fn accelerometers(&mut self, truth: &Truth) -> Vector3<f64> {
+    /// Reads the accelerometers alone.
+    fn accelerometers(&mut self, truth: &Truth) -> Vector3<f64> {
         let sigma = self.cfg.accelerometer_noise_m_s2;
         truth.specific_force + self.accelerometer_bias + Vector3::from_fn(|_, _| self.noise(sigma))
+    }
+
+    /// The accelerometers' mean over `readings` readings of `truth` (at least one): the
+    /// levelling at the station held before the run.
+    pub fn accelerometers_mean(&mut self, truth: &Truth, readings: usize) -> Vector3<f64> {
+        let n = readings.max(1);
+        (0..n).fold(Vector3::zeros(), |acc, _| acc + self.accelerometers(truth)) / n as f64
     }
 
     /// Reads every sensor at time `t`.
