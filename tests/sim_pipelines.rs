@@ -319,11 +319,11 @@ fn a_sea_current_is_estimated_and_not_taken_for_contact() {
 fn noise_free_sensors_meet_the_seed_s_identification_figure_at_every_instant() {
     let dir = tempfile::tempdir().unwrap();
     let noise_free = [
-        "joint_rate_noise_rad_s",
-        "torque_noise_nm",
+        "joint_rate_noise_rad_s_per_rt_hz",
+        "torque_noise_nm_per_rt_hz",
         "attitude_noise_rad",
-        "gyro_noise_rad_s",
-        "accelerometer_noise_m_s2",
+        "gyro_noise_rad_s_per_rt_hz",
+        "accelerometer_noise_m_s2_per_rt_hz",
         "accelerometer_bias_m_s2",
         "vision_noise_m",
     ]

@@ -455,8 +455,7 @@ struct BaseSteps {
 #[derive(Debug, Clone)]
 pub struct Icu {
     cfg: IcuConfig,
-    /// The tachometers' and torque sensors' standard deviations (their data sheet), rad/s and
-    /// N·m.
+    /// The tachometers' and torque sensors' standard deviations at a reading, rad/s and N·m.
     sensor_noise: (f64, f64),
     /// The filter of the measured signals (built at the first measurement).
     filter: Option<LowPass<18>>,
@@ -488,12 +487,13 @@ pub struct Icu {
 }
 
 impl Icu {
-    /// An ICU that has seen no measurement yet, for the sensors `sensors` (the drive filter
-    /// weighs them by their noise).
-    pub fn new(cfg: &IcuConfig, sensors: &SensorConfig) -> Self {
+    /// An ICU that has seen no measurement yet, for the sensors `sensors` read every `dt`
+    /// seconds (the drive filter weighs them by their noise).
+    pub fn new(cfg: &IcuConfig, sensors: &SensorConfig, dt: f64) -> Self {
+        let noise = sensors.reading_noise(dt);
         Icu {
             cfg: *cfg,
-            sensor_noise: (sensors.joint_rate_noise_rad_s, sensors.torque_noise_nm),
+            sensor_noise: (noise.joint_rate, noise.torque),
             filter: None,
             observer: DriveFilter::default(),
             system: None,
@@ -852,7 +852,7 @@ mod tests {
                 tare_s,
                 ..IcuConfig::default()
             };
-            let mut icu = Icu::new(&cfg, &SensorConfig::default());
+            let mut icu = Icu::new(&cfg, &SensorConfig::default(), dt);
             let mut id = None;
             for _ in 0..8000 {
                 let m = meas(m_wz + b);
@@ -938,8 +938,8 @@ mod tests {
 
     /// An arm on a fixed base under a PD loop holding every joint at the rate `w` from
     /// `q0`, its plant the controller's own model (integrated at 10 kHz, controlled and
-    /// measured at 1 kHz), with the sensors' noise
-    /// (0.05 N·m, 1 mrad/s); after 0.3 s the tool force `f_step` appears at once and the drive
+    /// measured at 1 kHz), with the default sensors' noise
+    /// (some 0.05 N·m and 1 mrad/s a reading); after 0.3 s the tool force `f_step` appears at once and the drive
     /// torques step by `tau_step`. The largest error of `M_ez` at each period.
     fn simulate(
         acceleration: Acceleration,
@@ -954,7 +954,9 @@ mod tests {
             acceleration,
             ..IcuConfig::default()
         };
-        let mut icu = Icu::new(&cfg, &SensorConfig::default());
+        let sensors = SensorConfig::default();
+        let sigma = sensors.reading_noise(dt);
+        let mut icu = Icu::new(&cfg, &sensors, dt);
         let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(5);
         let q0 = JointVector::new(0.3, 0.9, -2.0, 0.4, 0.7, -0.5);
         let (mut q, mut qd) = (q0, w);
@@ -979,8 +981,8 @@ mod tests {
                 tau - arm.armature().component_mul(&qdd) - arm.friction(&qd, Some(arm.coulomb_smoothing));
             let meas = Measurements {
                 q,
-                qd: qd.map(|v| v + 1e-3 * gaussian(&mut rng)),
-                m_dz: shaft.map(|v| v + 0.05 * gaussian(&mut rng)),
+                qd: qd.map(|v| v + sigma.joint_rate * gaussian(&mut rng)),
+                m_dz: shaft.map(|v| v + sigma.torque * gaussian(&mut rng)),
                 attitude: nalgebra::UnitQuaternion::identity(),
                 omega: Vector3::zeros(),
                 specific_force: -(arm.mount().rot.transpose() * base.gravity),

@@ -391,15 +391,15 @@ pub fn simulate(
     let h = hover.t_world_body;
     let mut plant = Plant::new(&plant_model, State::at_rest(h, hover.q_start), cfg.integrator)?;
     let mut contact = Contact::new(surface, &cfg.contact)?;
-    let mut sensors = Sensors::new(&cfg.sensors, cfg.seed, h.translation.vector);
+    let dt = 1.0 / cfg.control_rate_hz;
+    let mut sensors = Sensors::new(&cfg.sensors, cfg.seed, h.translation.vector, dt);
     let mut fcu = Fcu::new(&cfg.force);
-    let mut icu = Icu::new(&cfg.icu, &cfg.sensors).on_vehicle(&ctrl);
+    let mut icu = Icu::new(&cfg.icu, &cfg.sensors, dt).on_vehicle(&ctrl);
     let mut joints = JointControl::new(&cfg.joints, &hover.q_start);
     let units = &ctrl_model.thrusters.units;
     let thruster_lag = units.iter().map(|u| u.time_constant).sum::<f64>() / units.len().max(1) as f64;
     let mut vc = VehicleControl::new(&cfg.vehicle, &h, thruster_lag);
-    let dt = 1.0 / cfg.control_rate_hz;
-    let mut nav = Navigation::new(&cfg.navigation, &cfg.sensors, h.translation.vector, g, dt);
+    let mut nav = Navigation::new(&cfg.navigation, &cfg.sensors, h.translation.vector, g);
 
     // The station was held before the run, in the current if there is one: the thrusters held
     // the vehicle and the arm at rest against their weight, buoyancy and the water (the

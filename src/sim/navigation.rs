@@ -15,7 +15,7 @@
 //!   inertial dead reckoning), and corrected at each delayed vision fix by a Kalman filter of
 //!   the position, the velocity and the accelerometers' bias (per world axis, one covariance
 //!   for the three: the noise is the same on each). It assumes the sensors' own noise — the
-//!   accelerometers' `accelerometer_noise_m_s2` at the control rate, the fixes'
+//!   accelerometers' density `accelerometer_noise_m_s2_per_rt_hz`, the fixes'
 //!   `vision_noise_m` — and a bias that walks with `accelerometer_bias_walk` (the simulated
 //!   bias is constant: the walk is the filter's margin, for the attitude's slow error times
 //!   `g` too, some 2·10⁻⁴ m/s², and keeps it learning). The bias starts
@@ -107,7 +107,7 @@ impl NavigationConfig {
 pub struct Navigation {
     cfg: NavigationConfig,
     gravity: Vector3<f64>,
-    /// The accelerometers' deviation at a reading (m/s²) and the fixes' per coordinate (m).
+    /// The accelerometers' noise density (m/s²/√Hz) and the fixes' deviation per coordinate (m).
     noise: (f64, f64),
     /// The filtered attitude (none before the levelling or the first measurement).
     attitude: Option<UnitQuaternion<f64>>,
@@ -131,20 +131,14 @@ pub struct Navigation {
 
 impl Navigation {
     /// The vehicle at rest at `position` (the station held before the run), in gravity `g`
-    /// (m/s², along +z of NED), seen by the sensors `sensors` (whose noise the filter assumes)
-    /// read every `dt` seconds. The filter ran while the station was held: its covariance
-    /// starts at the steady state of a fix every `1/vision_rate_hz`.
-    pub fn new(
-        cfg: &NavigationConfig,
-        sensors: &SensorConfig,
-        position: Vector3<f64>,
-        g: f64,
-        dt: f64,
-    ) -> Self {
+    /// (m/s², along +z of NED), seen by the sensors `sensors` (whose noise the filter
+    /// assumes). The filter ran while the station was held: its covariance starts at the steady
+    /// state of a fix every `1/vision_rate_hz`.
+    pub fn new(cfg: &NavigationConfig, sensors: &SensorConfig, position: Vector3<f64>, g: f64) -> Self {
         let mut nav = Navigation {
             cfg: *cfg,
             gravity: Vector3::new(0.0, 0.0, g),
-            noise: (sensors.accelerometer_noise_m_s2, sensors.vision_noise_m),
+            noise: (sensors.accelerometer_noise_m_s2_per_rt_hz, sensors.vision_noise_m),
             attitude: None,
             position,
             estimate: position,
@@ -160,7 +154,7 @@ impl Navigation {
         let interval = 1.0 / sensors.vision_rate_hz;
         for _ in 0..100_000 {
             let before = nav.covariance;
-            nav.predict_and_update(interval, dt);
+            nav.predict_and_update(interval);
             if (nav.covariance - before).amax() <= 1e-12 * nav.covariance.amax() {
                 break;
             }
@@ -199,7 +193,7 @@ impl Navigation {
                     self.history.pop_front();
                 }
                 if let Some(&(tf, pf, _)) = self.history.front() {
-                    let gain = self.predict_and_update(m.position_time - self.last_fix, dt);
+                    let gain = self.predict_and_update(m.position_time - self.last_fix);
                     let e = m.position - pf;
                     // The correction of (position, velocity, world bias) at `tf`, and what it
                     // becomes `τ` later: `(δp + δv τ − δb τ²/2, δv − δb τ)`.
@@ -235,21 +229,21 @@ impl Navigation {
     }
 
     /// The Kalman gain of a fix `span` seconds after the last (per axis, of the residual on
-    /// `(position, velocity, world bias)`), with the covariance moved to the fix and updated;
-    /// the accelerometers are read every `dt` seconds.
+    /// `(position, velocity, world bias)`), with the covariance moved to the fix and updated.
     ///
     /// Over `T` the state moves as `p += v T − b T²/2`, `v −= b T` (the world bias `b` is
     /// subtracted from the acceleration), with the accelerometers' white noise of intensity
-    /// `q_a = σ_a² dt` on the acceleration and the bias's walk `q_b` on `b`:
+    /// `q_a` (their density squared; `σ_a² dt` of a reading every `dt`) on the acceleration and
+    /// the bias's walk `q_b` on `b`:
     ///
     /// ```text
     /// Q = q_a [T³/3 T²/2 0; T²/2 T 0; 0 0 0] + q_b [T⁵/20 T⁴/8 −T³/6; T⁴/8 T³/3 −T²/2; −T³/6 −T²/2 T]
     /// ```
-    fn predict_and_update(&mut self, span: f64, dt: f64) -> Vector3<f64> {
+    fn predict_and_update(&mut self, span: f64) -> Vector3<f64> {
         let t = span.max(0.0);
         let (t2, t3) = (t * t, t * t * t);
         let f = Matrix3::new(1.0, t, -0.5 * t2, 0.0, 1.0, -t, 0.0, 0.0, 1.0);
-        let qa = self.noise.0.powi(2) * dt;
+        let qa = self.noise.0.powi(2);
         let qb = self.cfg.accelerometer_bias_walk.powi(2);
         let q = Matrix3::new(t3 / 3.0, t2 / 2.0, 0.0, t2 / 2.0, t, 0.0, 0.0, 0.0, 0.0) * qa
             + Matrix3::new(
@@ -298,7 +292,7 @@ mod tests {
     /// The filter levelled on 10 s of `sensors` at rest at 1 kHz.
     fn levelled(cfg: &NavigationConfig, assumed: &SensorConfig, sensors: &mut Sensors) -> Navigation {
         let rest = at_rest(Vector3::zeros());
-        let mut nav = Navigation::new(cfg, assumed, Vector3::zeros(), 9.81, 1e-3);
+        let mut nav = Navigation::new(cfg, assumed, Vector3::zeros(), 9.81);
         nav.level(&sensors.accelerometers_mean(&rest, 10_000), &rest.attitude);
         nav
     }
@@ -308,7 +302,7 @@ mod tests {
     #[test]
     fn estimate_tracks_the_vehicle_despite_the_delayed_fix() {
         let cfg = SensorConfig::default();
-        let mut sensors = Sensors::new(&cfg, 3, Vector3::zeros());
+        let mut sensors = Sensors::new(&cfg, 3, Vector3::zeros(), 1e-3);
         let mut nav = levelled(&NavigationConfig::default(), &cfg, &mut sensors);
         let (amp, w) = (0.02, 2.0 * std::f64::consts::PI * 0.7);
         let dt = 1e-3;
@@ -332,20 +326,19 @@ mod tests {
     }
 
     /// The gain settles where the discrete Riccati equation of the same model, iterated
-    /// independently (numpy, 10⁵ fixes), puts it for the default sensors (0.02 m/s² at 1 kHz,
-    /// 1 mm fixes at 10 Hz) and bias walk (10⁻⁴ m/s²/√s): `K = (0.193613, 0.207970, −0.028397)`,
+    /// independently (numpy, 10⁵ fixes), puts it for accelerometers of 0.02 m/s² at 1 kHz
+    /// (`0.02 √0.001` m/s²/√Hz, the default's 6.32·10⁻⁴ to three digits), 1 mm fixes at 10 Hz
+    /// and the default bias walk (10⁻⁴ m/s²/√s): `K = (0.193613, 0.207970, −0.028397)`,
     /// posterior position variance 1.93613·10⁻⁷ m². The filter starts there.
     #[test]
     fn the_gain_settles_at_the_riccati_equation_s_steady_state() {
-        let mut nav = Navigation::new(
-            &NavigationConfig::default(),
-            &SensorConfig::default(),
-            Vector3::zeros(),
-            9.81,
-            1e-3,
-        );
+        let sensors = SensorConfig {
+            accelerometer_noise_m_s2_per_rt_hz: 0.02 * 1e-3f64.sqrt(),
+            ..SensorConfig::default()
+        };
+        let mut nav = Navigation::new(&NavigationConfig::default(), &sensors, Vector3::zeros(), 9.81);
         assert!((nav.covariance[(0, 0)] / 1.936_134_64e-7 - 1.0).abs() < 1e-5);
-        let k = nav.predict_and_update(0.1, 1e-3);
+        let k = nav.predict_and_update(0.1);
         let expected = Vector3::new(0.193_613_46, 0.207_970_01, -0.028_396_95);
         assert!((k - expected).amax() < 1e-6, "{k} vs {expected}");
         assert!((nav.covariance[(0, 0)] / 1.936_134_64e-7 - 1.0).abs() < 1e-5);
@@ -360,15 +353,15 @@ mod tests {
     fn a_correction_is_carried_forward_as_a_replay_from_the_fix_s_instant() {
         let cfg = SensorConfig {
             attitude_noise_rad: 0.0,
-            gyro_noise_rad_s: 0.0,
+            gyro_noise_rad_s_per_rt_hz: 0.0,
             accelerometer_bias_m_s2: 0.05,
             ..SensorConfig::default()
         };
         let dt = 1e-3;
         let g = Vector3::new(0.0, 0.0, 9.81);
         let truth = at_rest(Vector3::zeros());
-        let mut sensors = Sensors::new(&cfg, 4, Vector3::zeros());
-        let mut nav = Navigation::new(&NavigationConfig::default(), &cfg, Vector3::zeros(), 9.81, dt);
+        let mut sensors = Sensors::new(&cfg, 4, Vector3::zeros(), dt);
+        let mut nav = Navigation::new(&NavigationConfig::default(), &cfg, Vector3::zeros(), 9.81);
         nav.level(&truth.specific_force, &truth.attitude);
         // The replay: every reading, the state after each, and the filter's gains by a twin.
         let mut twin = nav.clone();
@@ -394,7 +387,7 @@ mod tests {
                         .iter()
                         .rposition(|s| s.0 <= m.position_time + 1e-12)
                         .unwrap();
-                    let k_fix = twin.predict_and_update(m.position_time - last_fix, dt);
+                    let k_fix = twin.predict_and_update(m.position_time - last_fix);
                     let e = m.position - states[i].1;
                     let (mut pf, mut vf) = (states[i].1 + e * k_fix.x, states[i].2 + e * k_fix.y);
                     bias += e * k_fix.z;
@@ -421,17 +414,18 @@ mod tests {
     /// the accelerometers' noise assumed breaks it.
     #[test]
     fn the_error_at_the_fixes_is_what_the_covariance_says() {
-        let ratio = |assumed_noise: f64| {
+        let ratio = |assumed_share: f64| {
             let sensors_cfg = SensorConfig::default();
             let assumed = SensorConfig {
-                accelerometer_noise_m_s2: assumed_noise,
+                accelerometer_noise_m_s2_per_rt_hz: assumed_share
+                    * sensors_cfg.accelerometer_noise_m_s2_per_rt_hz,
                 ..sensors_cfg
             };
             let (mut squared, mut predicted) = (0.0, 0.0);
             let dt = 1e-3;
             let truth = at_rest(Vector3::zeros());
             for seed in 1..=5 {
-                let mut sensors = Sensors::new(&sensors_cfg, seed, Vector3::zeros());
+                let mut sensors = Sensors::new(&sensors_cfg, seed, Vector3::zeros(), dt);
                 let mut nav = levelled(&NavigationConfig::default(), &assumed, &mut sensors);
                 let mut last_fix = nav.last_fix;
                 for k in 0..120_000 {
@@ -449,10 +443,10 @@ mod tests {
         };
         // 0.99; 1.41 and 0.84 with half and twice the noise assumed (the fixes' share of the
         // error is the same either way).
-        let r = ratio(0.02);
+        let r = ratio(1.0);
         assert!((r - 1.0).abs() < 0.08, "{r}");
-        assert!(ratio(0.01) > 1.25, "an optimistic filter");
-        assert!(ratio(0.04) < 0.92, "a pessimistic filter");
+        assert!(ratio(0.5) > 1.25, "an optimistic filter");
+        assert!(ratio(2.0) < 0.92, "a pessimistic filter");
     }
 
     /// A vehicle at rest, exact sensors, and the vehicle moved by 1 cm in an instant that the
@@ -462,7 +456,7 @@ mod tests {
     #[test]
     fn the_fixes_corrections_pass_gradually_not_at_once() {
         let exact = SensorConfig {
-            accelerometer_noise_m_s2: 0.0,
+            accelerometer_noise_m_s2_per_rt_hz: 0.0,
             accelerometer_bias_m_s2: 0.0,
             vision_noise_m: 0.0,
             ..SensorConfig::default()
@@ -473,7 +467,7 @@ mod tests {
                 correction_s,
                 ..NavigationConfig::default()
             };
-            let mut sensors = Sensors::new(&exact, 1, Vector3::zeros());
+            let mut sensors = Sensors::new(&exact, 1, Vector3::zeros(), dt);
             // The filter assumes the default sensors' noise.
             let mut nav = levelled(&cfg, &SensorConfig::default(), &mut sensors);
             let mut last = nav.position;

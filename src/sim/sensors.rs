@@ -9,7 +9,12 @@
 //! - the vision system: the vehicle's position relative to the (fixed) object, delayed by
 //!   0.25 s, at a finite rate, with noise — the seed's delayed fix that eq. (18) works with.
 //!
-//! Every random draw comes from one `ChaCha8Rng` seeded from the configuration.
+//! The tachometers', torque sensors', gyros' and accelerometers' noise is given as a density
+//! (a datasheet's figure, e.g. an accelerometer's 64 µg/√Hz), white over the band the control
+//! rate samples: a reading's deviation is the density over `√dt`, and a faster control rate
+//! reads the same sensors more often, each reading noisier. The attitude's noise (an attitude
+//! reference's output) and the vision fixes' are per reading. Every random draw comes from one
+//! `ChaCha8Rng` seeded from the configuration.
 
 use crate::arm::JointVector;
 use crate::config::{non_negative, positive};
@@ -27,16 +32,16 @@ use std::collections::VecDeque;
 pub struct SensorConfig {
     /// Encoder resolution, rad (link side).
     pub encoder_resolution_rad: f64,
-    /// Standard deviation of the joint-rate measurement, rad/s.
-    pub joint_rate_noise_rad_s: f64,
-    /// Standard deviation of the joint-torque sensors, N·m.
-    pub torque_noise_nm: f64,
+    /// Noise density of the tachometers (the joint rates), rad/s/√Hz.
+    pub joint_rate_noise_rad_s_per_rt_hz: f64,
+    /// Noise density of the joint-torque sensors, N·m/√Hz.
+    pub torque_noise_nm_per_rt_hz: f64,
     /// Standard deviation of the attitude angles, rad.
     pub attitude_noise_rad: f64,
-    /// Standard deviation of the gyro rates, rad/s.
-    pub gyro_noise_rad_s: f64,
-    /// Standard deviation of the accelerometers, m/s².
-    pub accelerometer_noise_m_s2: f64,
+    /// Noise density of the gyro rates, rad/s/√Hz.
+    pub gyro_noise_rad_s_per_rt_hz: f64,
+    /// Noise density of the accelerometers, m/s²/√Hz.
+    pub accelerometer_noise_m_s2_per_rt_hz: f64,
     /// Standard deviation of the accelerometers' constant bias (one draw per axis), m/s².
     pub accelerometer_bias_m_s2: f64,
     /// Delay of the vision system's position fix, s (the seed's 0.25 s).
@@ -51,11 +56,11 @@ impl Default for SensorConfig {
     fn default() -> Self {
         SensorConfig {
             encoder_resolution_rad: 2.0 * std::f64::consts::PI / 131_072.0,
-            joint_rate_noise_rad_s: 1e-3,
-            torque_noise_nm: 0.05,
+            joint_rate_noise_rad_s_per_rt_hz: 3.16e-5,
+            torque_noise_nm_per_rt_hz: 1.58e-3,
             attitude_noise_rad: 2e-4,
-            gyro_noise_rad_s: 1e-3,
-            accelerometer_noise_m_s2: 0.02,
+            gyro_noise_rad_s_per_rt_hz: 3.16e-5,
+            accelerometer_noise_m_s2_per_rt_hz: 6.32e-4,
             accelerometer_bias_m_s2: 0.01,
             vision_delay_s: 0.25,
             vision_rate_hz: 10.0,
@@ -71,13 +76,22 @@ impl SensorConfig {
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
         non_negative("sim.sensors.encoder_resolution_rad", self.encoder_resolution_rad)?;
-        non_negative("sim.sensors.joint_rate_noise_rad_s", self.joint_rate_noise_rad_s)?;
-        non_negative("sim.sensors.torque_noise_nm", self.torque_noise_nm)?;
-        non_negative("sim.sensors.attitude_noise_rad", self.attitude_noise_rad)?;
-        non_negative("sim.sensors.gyro_noise_rad_s", self.gyro_noise_rad_s)?;
         non_negative(
-            "sim.sensors.accelerometer_noise_m_s2",
-            self.accelerometer_noise_m_s2,
+            "sim.sensors.joint_rate_noise_rad_s_per_rt_hz",
+            self.joint_rate_noise_rad_s_per_rt_hz,
+        )?;
+        non_negative(
+            "sim.sensors.torque_noise_nm_per_rt_hz",
+            self.torque_noise_nm_per_rt_hz,
+        )?;
+        non_negative("sim.sensors.attitude_noise_rad", self.attitude_noise_rad)?;
+        non_negative(
+            "sim.sensors.gyro_noise_rad_s_per_rt_hz",
+            self.gyro_noise_rad_s_per_rt_hz,
+        )?;
+        non_negative(
+            "sim.sensors.accelerometer_noise_m_s2_per_rt_hz",
+            self.accelerometer_noise_m_s2_per_rt_hz,
         )?;
         non_negative(
             "sim.sensors.accelerometer_bias_m_s2",
@@ -87,6 +101,32 @@ impl SensorConfig {
         non_negative("sim.sensors.vision_noise_m", self.vision_noise_m)?;
         positive("sim.sensors.vision_rate_hz", self.vision_rate_hz)
     }
+
+    /// The standard deviations of one reading of the sensors given as noise densities, read
+    /// every `dt` seconds: white noise of density `N` sampled every `dt` has `σ = N/√dt`, so the
+    /// sensors are the same at any control rate.
+    pub fn reading_noise(&self, dt: f64) -> ReadingNoise {
+        let per_reading = 1.0 / dt.sqrt();
+        ReadingNoise {
+            joint_rate: self.joint_rate_noise_rad_s_per_rt_hz * per_reading,
+            torque: self.torque_noise_nm_per_rt_hz * per_reading,
+            gyro: self.gyro_noise_rad_s_per_rt_hz * per_reading,
+            accelerometer: self.accelerometer_noise_m_s2_per_rt_hz * per_reading,
+        }
+    }
+}
+
+/// The standard deviations of one reading ([`SensorConfig::reading_noise`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReadingNoise {
+    /// Of a tachometer, rad/s.
+    pub joint_rate: f64,
+    /// Of a joint-torque sensor, N·m.
+    pub torque: f64,
+    /// Of a gyro rate, rad/s.
+    pub gyro: f64,
+    /// Of an accelerometer, m/s².
+    pub accelerometer: f64,
 }
 
 /// The true quantities the sensors read at one instant (from the plant).
@@ -133,6 +173,8 @@ pub struct Measurements {
 #[derive(Debug)]
 pub struct Sensors {
     cfg: SensorConfig,
+    /// The readings' standard deviations at the rate the sensors are read.
+    sigma: ReadingNoise,
     noise: NormalPairs,
     /// True positions not yet old enough to be reported: (time, position).
     pending: VecDeque<(f64, Vector3<f64>)>,
@@ -142,11 +184,13 @@ pub struct Sensors {
 }
 
 impl Sensors {
-    /// Sensors seeded with `seed`; before the first delayed fix arrives, the vision system
-    /// reports `position0` (the vehicle held its station before the run).
-    pub fn new(cfg: &SensorConfig, seed: u64, position0: Vector3<f64>) -> Self {
+    /// Sensors seeded with `seed`, read every `dt` seconds; before the first delayed fix
+    /// arrives, the vision system reports `position0` (the vehicle held its station before the
+    /// run).
+    pub fn new(cfg: &SensorConfig, seed: u64, position0: Vector3<f64>, dt: f64) -> Self {
         let mut s = Sensors {
             cfg: *cfg,
+            sigma: cfg.reading_noise(dt),
             noise: NormalPairs::new(ChaCha8Rng::seed_from_u64(seed)),
             pending: VecDeque::new(),
             fix: (-cfg.vision_delay_s, position0),
@@ -167,7 +211,7 @@ impl Sensors {
 
     /// Reads the accelerometers alone.
     fn accelerometers(&mut self, truth: &Truth) -> Vector3<f64> {
-        let sigma = self.cfg.accelerometer_noise_m_s2;
+        let sigma = self.sigma.accelerometer;
         truth.specific_force + self.accelerometer_bias + Vector3::from_fn(|_, _| self.noise(sigma))
     }
 
@@ -180,16 +224,16 @@ impl Sensors {
 
     /// Reads every sensor at time `t`.
     pub fn read(&mut self, t: f64, truth: &Truth) -> Measurements {
-        let c = self.cfg;
+        let (c, sigma) = (self.cfg, self.sigma);
         let res = c.encoder_resolution_rad;
         let q = truth
             .q
             .map(|v| if res > 0.0 { (v / res).round() * res } else { v });
-        let qd = truth.qd.map(|v| v + self.noise(c.joint_rate_noise_rad_s));
-        let m_dz = truth.shaft_torque.map(|v| v + self.noise(c.torque_noise_nm));
+        let qd = truth.qd.map(|v| v + self.noise(sigma.joint_rate));
+        let m_dz = truth.shaft_torque.map(|v| v + self.noise(sigma.torque));
         let tilt = Vector3::from_fn(|_, _| self.noise(c.attitude_noise_rad));
         let attitude = truth.attitude * UnitQuaternion::from_scaled_axis(tilt);
-        let omega = truth.omega.map(|v| v + self.noise(c.gyro_noise_rad_s));
+        let omega = truth.omega.map(|v| v + self.noise(sigma.gyro));
         let specific_force = self.accelerometers(truth);
         // Vision: a fix every 1/rate, reporting where the vehicle was `delay` ago.
         self.pending.push_back((t, truth.position));
@@ -241,8 +285,8 @@ mod tests {
             vision_noise_m: 0.0,
             ..SensorConfig::default()
         };
-        let mut s = Sensors::new(&cfg, 1, Vector3::new(-1.0, 0.0, 0.0));
         let dt = 1e-3;
+        let mut s = Sensors::new(&cfg, 1, Vector3::new(-1.0, 0.0, 0.0), dt);
         let mut seen = Vec::new();
         for k in 0..1000 {
             let t = k as f64 * dt;
@@ -264,22 +308,49 @@ mod tests {
         assert!((seen[650].1 - 0.35).abs() < 1e-9);
     }
 
+    /// The torque sensors' readings over `n` readings `dt` apart: their standard deviation,
+    /// and the standard deviation of their means over each 4 ms.
+    fn torque_spread(cfg: &SensorConfig, seed: u64, dt: f64, n: usize) -> (f64, f64) {
+        let mut s = Sensors::new(cfg, seed, Vector3::zeros(), dt);
+        let per_window = (4e-3 / dt).round() as usize;
+        let errors: Vec<f64> = (0..n)
+            .map(|k| s.read(k as f64 * dt, &truth(0.0)).m_dz[0] - 1.0)
+            .collect();
+        let rms = |v: &mut dyn Iterator<Item = f64>| {
+            let (sum, count) = v.fold((0.0, 0usize), |(s, c), x| (s + x * x, c + 1));
+            (sum / count as f64).sqrt()
+        };
+        let windows = errors.chunks_exact(per_window);
+        (
+            rms(&mut errors.iter().copied()),
+            rms(&mut windows.map(|w| w.iter().sum::<f64>() / w.len() as f64)),
+        )
+    }
+
     #[test]
-    fn noise_has_the_configured_spread_and_is_seeded() {
+    fn noise_has_the_configured_density_and_is_seeded() {
         let cfg = SensorConfig::default();
-        let mut a = Sensors::new(&cfg, 7, Vector3::zeros());
-        let mut b = Sensors::new(&cfg, 7, Vector3::zeros());
-        let n = 20_000;
-        let mut sum2 = 0.0;
-        for k in 0..n {
+        let mut a = Sensors::new(&cfg, 7, Vector3::zeros(), 1e-3);
+        let mut b = Sensors::new(&cfg, 7, Vector3::zeros(), 1e-3);
+        for k in 0..100 {
             let t = k as f64 * 1e-3;
-            let ma = a.read(t, &truth(0.0));
-            let mb = b.read(t, &truth(0.0));
-            assert_eq!(ma.m_dz, mb.m_dz);
-            sum2 += (ma.m_dz[0] - 1.0).powi(2);
+            assert_eq!(a.read(t, &truth(0.0)).m_dz, b.read(t, &truth(0.0)).m_dz);
         }
-        let sigma = (sum2 / n as f64).sqrt();
-        assert!((sigma - 0.05).abs() < 0.002, "{sigma}");
+        // A reading's deviation is the density over √dt: 0.05 N·m at 1 kHz, twice that at
+        // 4 kHz. Averaged over the same 4 ms, the readings of both rates agree (the same
+        // sensor): the density is `σ √dt` whatever the rate.
+        let density = cfg.torque_noise_nm_per_rt_hz;
+        let (slow, slow_mean) = torque_spread(&cfg, 7, 1e-3, 40_000);
+        let (fast, fast_mean) = torque_spread(&cfg, 7, 0.25e-3, 160_000);
+        assert!((slow / (density / 1e-3f64.sqrt()) - 1.0).abs() < 0.02, "{slow}");
+        assert!(
+            (fast / (density / 0.25e-3f64.sqrt()) - 1.0).abs() < 0.02,
+            "{fast}"
+        );
+        let window = density / 4e-3f64.sqrt();
+        for mean in [slow_mean, fast_mean] {
+            assert!((mean / window - 1.0).abs() < 0.05, "{mean} against {window}");
+        }
         // Encoders are quantised to their resolution.
         let q = a.read(0.0, &truth(0.0)).q;
         let r = cfg.encoder_resolution_rad;

@@ -319,7 +319,6 @@ mod tests {
             &Default::default(),
             Vector3::new(0.1, 0.0, 0.0),
             9.81,
-            1e-3,
         );
         let m = Measurements {
             q: crate::arm::JointVector::zeros(),
