@@ -938,9 +938,9 @@ mod tests {
 
     /// An arm on a fixed base under a PD loop holding every joint at the rate `w` from
     /// `q0`, its plant the controller's own model (integrated at 10 kHz, controlled and
-    /// measured at 1 kHz), with the default sensors' noise
-    /// (some 0.05 N·m and 1 mrad/s a reading); after 0.3 s the tool force `f_step` appears at once and the drive
-    /// torques step by `tau_step`. The largest error of `M_ez` at each period.
+    /// measured at 1 kHz), with the default sensors' noise (some 0.05 N·m and 1 mrad/s a
+    /// reading); after 0.3 s the tool force `f_step` appears at once and the drive torques
+    /// step by `tau_step`. The largest error of `M_ez` at each period.
     fn simulate(
         acceleration: Acceleration,
         w: JointVector,

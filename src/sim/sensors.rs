@@ -308,23 +308,20 @@ mod tests {
         assert!((seen[650].1 - 0.35).abs() < 1e-9);
     }
 
-    /// The torque sensors' readings over `n` readings `dt` apart: their standard deviation,
-    /// and the standard deviation of their means over each 4 ms.
-    fn torque_spread(cfg: &SensorConfig, seed: u64, dt: f64, n: usize) -> (f64, f64) {
+    /// The standard deviations of the tachometer, torque sensor, gyro and accelerometer
+    /// readings (one axis each) over `n` readings `dt` apart.
+    fn spreads(cfg: &SensorConfig, seed: u64, dt: f64, n: usize) -> [f64; 4] {
         let mut s = Sensors::new(cfg, seed, Vector3::zeros(), dt);
-        let per_window = (4e-3 / dt).round() as usize;
-        let errors: Vec<f64> = (0..n)
-            .map(|k| s.read(k as f64 * dt, &truth(0.0)).m_dz[0] - 1.0)
+        let readings: Vec<[f64; 4]> = (0..n)
+            .map(|k| {
+                let m = s.read(k as f64 * dt, &truth(0.0));
+                [m.qd[0], m.m_dz[0], m.omega.x, m.specific_force.x]
+            })
             .collect();
-        let rms = |v: &mut dyn Iterator<Item = f64>| {
-            let (sum, count) = v.fold((0.0, 0usize), |(s, c), x| (s + x * x, c + 1));
-            (sum / count as f64).sqrt()
-        };
-        let windows = errors.chunks_exact(per_window);
-        (
-            rms(&mut errors.iter().copied()),
-            rms(&mut windows.map(|w| w.iter().sum::<f64>() / w.len() as f64)),
-        )
+        std::array::from_fn(|c| {
+            let mean = readings.iter().map(|r| r[c]).sum::<f64>() / n as f64;
+            (readings.iter().map(|r| (r[c] - mean).powi(2)).sum::<f64>() / n as f64).sqrt()
+        })
     }
 
     #[test]
@@ -336,20 +333,23 @@ mod tests {
             let t = k as f64 * 1e-3;
             assert_eq!(a.read(t, &truth(0.0)).m_dz, b.read(t, &truth(0.0)).m_dz);
         }
-        // A reading's deviation is the density over √dt: 0.05 N·m at 1 kHz, twice that at
-        // 4 kHz. Averaged over the same 4 ms, the readings of both rates agree (the same
-        // sensor): the density is `σ √dt` whatever the rate.
-        let density = cfg.torque_noise_nm_per_rt_hz;
-        let (slow, slow_mean) = torque_spread(&cfg, 7, 1e-3, 40_000);
-        let (fast, fast_mean) = torque_spread(&cfg, 7, 0.25e-3, 160_000);
-        assert!((slow / (density / 1e-3f64.sqrt()) - 1.0).abs() < 0.02, "{slow}");
-        assert!(
-            (fast / (density / 0.25e-3f64.sqrt()) - 1.0).abs() < 0.02,
-            "{fast}"
-        );
-        let window = density / 4e-3f64.sqrt();
-        for mean in [slow_mean, fast_mean] {
-            assert!((mean / window - 1.0).abs() < 0.05, "{mean} against {window}");
+        // A reading's deviation is the density over √dt: some 0.05 N·m for the torque sensors
+        // at 1 kHz, twice that at 4 kHz (the same sensor read more often).
+        let densities = [
+            cfg.joint_rate_noise_rad_s_per_rt_hz,
+            cfg.torque_noise_nm_per_rt_hz,
+            cfg.gyro_noise_rad_s_per_rt_hz,
+            cfg.accelerometer_noise_m_s2_per_rt_hz,
+        ];
+        for (dt, n) in [(1e-3, 40_000), (0.25e-3, 160_000)] {
+            let measured = spreads(&cfg, 7, dt, n);
+            for (sigma, density) in measured.iter().zip(densities) {
+                let expected = density / dt.sqrt();
+                assert!(
+                    (sigma / expected - 1.0).abs() < 0.02,
+                    "{sigma} against {expected} at {dt} s"
+                );
+            }
         }
         // Encoders are quantised to their resolution.
         let q = a.read(0.0, &truth(0.0)).q;
