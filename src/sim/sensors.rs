@@ -11,7 +11,8 @@
 //!
 //! The tachometers', torque sensors', gyros' and accelerometers' noise is given as a density
 //! (a datasheet's figure, e.g. an accelerometer's 64 µg/√Hz), white over the band the control
-//! rate samples: a reading's deviation is the density over `√dt`, and a faster control rate
+//! rate samples: a reading's deviation is the density over `√dt` (the noise averaged over the
+//! period, the usual convention of inertial-sensor models), and a faster control rate
 //! reads the same sensors more often, each reading noisier. The attitude's noise (an attitude
 //! reference's output) and the vision fixes' are per reading. Every random draw comes from one
 //! `ChaCha8Rng` seeded from the configuration.
