@@ -795,6 +795,19 @@ mod tests {
             seed_joints(&JointVector::new(0.0, 1.0, -2.0, 0.0, 0.01, 0.0), s),
             [2, 1, 0]
         );
+        // Near zero from either side: a wrist bent the other way is not singular.
+        assert_eq!(
+            seed_joints(&JointVector::new(0.0, 1.0, -2.0, -0.3, -0.5, 0.0), s),
+            [4, 3, 2]
+        );
+        assert_eq!(
+            seed_joints(&JointVector::new(0.0, 1.0, -2.0, -0.3, -0.01, 0.0), s),
+            [4, 2, 1]
+        );
+        assert_eq!(
+            seed_joints(&JointVector::new(0.0, 1.0, -2.0, -0.01, -0.01, 0.0), s),
+            [2, 1, 0]
+        );
     }
 
     /// With exact sensors and the plant's own model, `M_ez` is exactly `J_vᵀ F_imp` of the force

@@ -280,6 +280,69 @@ mod tests {
         );
     }
 
+    /// The stabilisation's parts, each against the physics it answers: at the station, at
+    /// rest, tilted, the thrust is what holds the vehicle's weight and buoyancy (its equation
+    /// of motion at rest, [`Body::wrench`]) plus the open loop of eq. (17) as given; off the
+    /// station it pushes back towards it by `position_kp` per metre, and moving it pushes
+    /// against the motion by `position_kd` per m/s (world axes).
+    #[test]
+    fn the_stabilisation_holds_the_weight_pushes_back_and_damps() {
+        use crate::spatial_algebra::Motion;
+        let vehicle = crate::multibody::Multibody::new(&crate::model::UvmsModel::default())
+            .unwrap()
+            .vehicle;
+        let g = 9.81;
+        let attitude = UnitQuaternion::from_euler_angles(0.1, -0.05, 0.3);
+        let hover = Isometry3::from_parts(Vector3::new(1.0, 2.0, 3.0).into(), attitude);
+        // No integral, no lead on the open loop, still water: the loop's parts alone.
+        let cfg = VehicleControlConfig {
+            position_ki: 0.0,
+            attitude_ki: 0.0,
+            open_loop_lag_s: 0.0,
+            current_filter_s: 0.0,
+            ..VehicleControlConfig::default()
+        };
+        let open_loop = Force::new(Vector3::new(30.0, -20.0, 10.0), Vector3::new(5.0, 4.0, -3.0));
+        let m = Measurements {
+            q: crate::arm::JointVector::zeros(),
+            qd: crate::arm::JointVector::zeros(),
+            m_dz: crate::arm::JointVector::zeros(),
+            attitude,
+            omega: Vector3::zeros(),
+            specific_force: Vector3::zeros(),
+            position: hover.translation.vector,
+            position_time: 0.0,
+        };
+        let thrust = |position: Vector3<f64>, velocity: Vector3<f64>| {
+            let mut nav = Navigation::new(&Default::default(), &Default::default(), position, g);
+            nav.velocity = velocity;
+            let mut vc = VehicleControl::new(&cfg, &hover, 0.2);
+            vc.wrench(&m, &nav, &vehicle, g, &open_loop, 1e-3)
+        };
+        let at_station = thrust(hover.translation.vector, Vector3::zeros());
+        let g_body = attitude.inverse() * Vector3::new(0.0, 0.0, g);
+        let holding = vehicle.wrench(&Motion::ZERO, &Motion::ZERO, &g_body, &Vector3::zeros());
+        let expected = holding.to_vector6() + open_loop.to_vector6();
+        assert!(
+            (at_station - expected).amax() < 1e-9,
+            "{at_station} vs {expected}"
+        );
+        let world_lin = |tau: Vector6<f64>| attitude * (tau - at_station).fixed_rows::<3>(0).into_owned();
+        let off = world_lin(thrust(
+            hover.translation.vector + Vector3::new(0.1, 0.0, 0.0),
+            Vector3::zeros(),
+        ));
+        assert!(
+            (off - Vector3::new(-0.1 * cfg.position_kp, 0.0, 0.0)).norm() < 1e-6,
+            "{off}"
+        );
+        let moving = world_lin(thrust(hover.translation.vector, Vector3::new(0.0, 0.2, 0.0)));
+        assert!(
+            (moving - Vector3::new(0.0, -0.2 * cfg.position_kd, 0.0)).norm() < 1e-6,
+            "{moving}"
+        );
+    }
+
     /// A stabilisation trimmed to hold its vehicle at rest against the drag of a current
     /// reports that current (world axes, the vehicle turned), with or without integral gain.
     /// While the current is not learnt the estimate stays, in the world, as the thrust changes
