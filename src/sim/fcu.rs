@@ -160,6 +160,33 @@ mod tests {
         assert!((t63 - 0.275 * (1.0 - 1.1f64.ln())).abs() < 0.002, "{t63}");
     }
 
+    /// Eq. (14) term by term, each alone: `Kp ΔF`, `Ki ∫ΔF dt`, and `Kd` times the error's
+    /// rate (through its low-pass, settled on a ramp).
+    #[test]
+    fn each_term_of_the_pid_is_eq_14_s() {
+        let only = |kp: f64, ki: f64, kd: f64| {
+            Fcu::new(&FcuConfig {
+                kp,
+                ki,
+                kd,
+                max_offset_m: 1e3,
+                ..FcuConfig::default()
+            })
+        };
+        let dt = 1e-3;
+        assert!((only(2e-3, 0.0, 0.0).update(5.0, dt) - 1e-2).abs() < 1e-15);
+        let mut integral = only(0.0, 1e-3, 0.0);
+        let last = (0..2000).map(|_| integral.update(5.0, dt)).last().unwrap();
+        assert!((last - 1e-3 * 5.0 * 2.0).abs() < 1e-12, "{last}");
+        // An error rising at 40 N/s.
+        let mut derivative = only(0.0, 0.0, 1e-3);
+        let last = (0..2000)
+            .map(|k| derivative.update(40.0 * k as f64 * dt, dt))
+            .last()
+            .unwrap();
+        assert!((last - 1e-3 * 40.0).abs() < 1e-9, "{last}");
+    }
+
     #[test]
     fn offset_is_bounded_without_windup() {
         let mut fcu = Fcu::new(&FcuConfig::default());
