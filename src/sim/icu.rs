@@ -831,7 +831,8 @@ mod tests {
 
     /// The controller's model errs by a constant moment `b` in free space: zeroed in the
     /// approach, `M_ez` starts from zero at the touch and then carries exactly the contact's
-    /// moments (the offset frozen); without the zeroing it carries `b`.
+    /// moments (the offset frozen); without the zeroing it carries `b`. The zeroing also ends
+    /// with the approach, touch or not, and a slow touch does not load the offset.
     #[test]
     fn zeroing_in_the_approach_removes_the_model_offset_and_stops_at_the_touch() {
         let arm = arm();
@@ -891,6 +892,45 @@ mod tests {
                 assert!((loaded.f_imp_base - f).norm() < 0.1, "{}", loaded.f_imp_base);
             }
         }
+        // Out of the approach the zeroing ends with or without a touch: a moment that appears
+        // then, too small to be one (an apparent 2 N), is not zeroed away.
+        let cfg = IcuConfig {
+            tare_s: 1.0,
+            ..IcuConfig::default()
+        };
+        let mut icu = Icu::new(&cfg, &SensorConfig::default(), dt);
+        let small = b * (2.0 / 3.0);
+        let mut last = zero;
+        for k in 0..11_000 {
+            let (m, approach) = if k < 8000 {
+                (meas(m_wz + b), true)
+            } else {
+                (meas(m_wz + b + small), false)
+            };
+            let vt = arm.velocity_terms(&m.q, &m.qd, &base);
+            last = icu.identify(&arm, &m, &vt, &drive, &base, approach, dt).m_ez;
+        }
+        assert!((last - small).amax() < 1e-3 * small.amax(), "{last}");
+        // A slow touch, still in the approach: the force rises at 10 N/s, and the zeroing
+        // follows it until the touch is judged (5 N). There the offset goes back to its value
+        // from before the force (below 1 N): `M_ez` carries the whole contact.
+        let mut icu = Icu::new(&cfg, &SensorConfig::default(), dt);
+        let unit = contact / 60.0;
+        for k in 0..12_000 {
+            let force = if k < 8000 {
+                0.0
+            } else {
+                10.0 * (k - 8000) as f64 * dt
+            };
+            let m = meas(m_wz + b + unit * force);
+            let vt = arm.velocity_terms(&m.q, &m.qd, &base);
+            last = icu.identify(&arm, &m, &vt, &drive, &base, true, dt).m_ez;
+        }
+        let expect = unit * 40.0 - unit * 10.0 * dt;
+        assert!(
+            (last - expect).amax() < 0.01 * expect.amax(),
+            "{last} vs {expect}"
+        );
     }
 
     /// The filtered derivative of a noisy rate tracks the acceleration of a sinusoid, delayed
