@@ -797,6 +797,26 @@ fn check_runaway(s: &State, hover: &Isometry3<f64>, t: f64) -> Result<()> {
 mod tests {
     use super::*;
 
+    /// A run that leaves any hovering vehicle's range ends as a failed run naming the time and
+    /// what ran away; at its station at rest it goes on.
+    #[test]
+    fn a_runaway_is_a_failed_run() {
+        let hover = Isometry3::translation(1.0, 2.0, 3.0);
+        let rest = State::at_rest(hover, JointVector::zeros());
+        assert!(check_runaway(&rest, &hover, 1.0).is_ok());
+        let mut far = rest;
+        far.t_world_body = Isometry3::translation(1.0, 2.0, 5.5);
+        let mut fast = rest;
+        fast.nu[0] = 6.0;
+        let mut spinning = rest;
+        spinning.qd[2] = 25.0;
+        for s in [far, fast, spinning] {
+            let err = check_runaway(&s, &hover, 12.5).unwrap_err();
+            assert!(matches!(err, Error::Failed { .. }), "{err}");
+            assert!(err.to_string().contains("ran away at t = 12.500 s"), "{err}");
+        }
+    }
+
     #[test]
     fn the_controllers_model_scales_the_drive_friction_and_forgets_the_current() {
         let mut plant = UvmsModel::default();

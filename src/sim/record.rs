@@ -598,6 +598,41 @@ mod tests {
         assert_eq!(f.force_max_n, 70.0);
     }
 
+    /// The settled figures count the contact phase from `settle_time` after the first contact
+    /// (a lost contact there too, as 0 N); contact is lost only while force is demanded after
+    /// the first contact; the identification's quantiles take the periods in contact alone.
+    #[test]
+    fn settled_force_lost_contact_and_quantiles_from_hand_made_periods() {
+        let mut rec = Recorder::new(60.0, 1.0);
+        let at = |t: f64, phase: Phase, in_contact: bool, f: f64| Observation {
+            phase,
+            f_k_true: f,
+            in_contact,
+            m_ez_error: if in_contact { 1.0 } else { 9.0 },
+            ..observation(t, false, 0.0)
+        };
+        rec.observe(&at(0.0, Phase::Approach, false, 0.0));
+        // A dwell before the first contact: not lost.
+        rec.observe(&at(0.0625, Phase::Dwell, false, 0.0));
+        rec.observe(&at(0.125, Phase::Dwell, true, 30.0));
+        rec.observe(&at(0.5, Phase::Dwell, true, 55.0));
+        // The path, within a second of the first contact: not settled yet.
+        rec.observe(&at(1.0, Phase::Contact, true, 58.0));
+        rec.observe(&at(1.25, Phase::Contact, true, 62.0));
+        rec.observe(&at(1.375, Phase::Contact, false, 0.0));
+        rec.observe(&at(1.5, Phase::Contact, true, 57.0));
+        // The retreat leaves the surface: not lost.
+        rec.observe(&at(1.625, Phase::Retreat, false, 0.0));
+        let f = rec.figures();
+        assert_eq!(f.first_contact_s, Some(0.125));
+        assert_eq!(f.contact_lost_s, 0.125);
+        assert!((f.force_settled_mean_n - 119.0 / 3.0).abs() < 1e-12);
+        assert!((f.force_rms_error_n - (3613.0f64 / 3.0).sqrt()).abs() < 1e-12);
+        assert_eq!(f.force_settled_min_n, 0.0);
+        assert_eq!(f.moment_id_error_contact_max_nm, Some(1.0));
+        assert_eq!(f.moment_id_error_max_nm, 9.0);
+    }
+
     /// The identification error's quantiles are taken over the periods in contact only; the
     /// run's largest error over every period.
     #[test]

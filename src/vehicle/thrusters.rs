@@ -260,15 +260,18 @@ mod tests {
         let got = &b * DVector::from_vec(a.thrusts.clone());
         assert!((got - DVector::from_column_slice(small.as_slice())).norm() < 1e-9);
         let big = small * 20.0;
-        let a = th.allocate(&big);
-        assert!(a.scale < 1.0 && a.in_span);
-        let max = a.thrusts.iter().map(|t| t.abs()).fold(0.0, f64::max);
-        assert!(
-            (max - 150.0).abs() < 1e-9,
-            "the limiting thruster sits at its limit"
-        );
-        let got = &b * DVector::from_vec(a.thrusts.clone());
-        assert!((got - DVector::from_column_slice((big * a.scale).as_slice())).norm() < 1e-9);
+        // Either way round: the limiting thruster pushing or pulling.
+        for big in [big, -big] {
+            let a = th.allocate(&big);
+            assert!(a.scale < 1.0 && a.in_span);
+            let max = a.thrusts.iter().map(|t| t.abs()).fold(0.0, f64::max);
+            assert!(
+                (max - 150.0).abs() < 1e-9,
+                "the limiting thruster sits at its limit: {max}"
+            );
+            let got = &b * DVector::from_vec(a.thrusts.clone());
+            assert!((got - DVector::from_column_slice((big * a.scale).as_slice())).norm() < 1e-9);
+        }
         for tau in [small, big] {
             assert_eq!(th.utilisation(&tau), th.allocate(&tau).utilisation);
         }
