@@ -188,6 +188,40 @@ mod tests {
         assert!((lag(5.0) + step).abs() < 1e-9, "{}", lag(5.0));
     }
 
+    /// The control law of the module docs term by term, against the controller's model: the
+    /// RNEA of `a` with the rotors, the friction at the reference rate, and the identified
+    /// moments through their low-pass; `a` the reference's acceleration plus the PD on its
+    /// errors.
+    #[test]
+    fn the_drive_torque_is_the_computed_torque_law() {
+        use crate::arm::dynamics::BaseMotion;
+        let arm = crate::multibody::Multibody::new(&crate::model::UvmsModel::default())
+            .unwrap()
+            .arm;
+        let base = BaseMotion::fixed(arm.level_gravity(9.81));
+        let cfg = JointControlConfig::default();
+        let q0 = JointVector::new(0.3, 0.9, -2.0, 0.4, 0.7, -0.5);
+        let mut jc = JointControl::new(&cfg, &q0);
+        let dt = 1e-3;
+        for _ in 0..50 {
+            jc.follow(&(q0 + JointVector::repeat(0.05)), &JointVector::zeros(), dt);
+        }
+        let q = q0 + JointVector::new(0.01, -0.02, 0.005, 0.0, 0.01, -0.01);
+        let qd = JointVector::new(0.05, -0.1, 0.02, 0.0, 0.03, 0.01);
+        let m_ez = JointVector::new(3.0, -2.0, 1.0, 0.5, -0.2, 0.1);
+        let vt = arm.velocity_terms(&q, &qd, &base);
+        let (w, z) = (cfg.bandwidth_rad_s, cfg.damping_ratio);
+        let a = jc.qdd_ref + (jc.q_ref - q) * (w * w) + (jc.qd_ref - qd) * (2.0 * z * w);
+        let (tau, _) = jc.torque(&arm, &vt, &m_ez, &Force::ZERO, dt);
+        let rigid = arm.inverse_dynamics(&q, &qd, &a, &base, None).tau_rigid;
+        let expected = rigid
+            + arm.armature().component_mul(&a)
+            + arm.friction(&jc.qd_ref, Some(arm.coulomb_smoothing))
+            + m_ez * lag_gain_hz(dt, cfg.external_filter_hz);
+        assert!((tau - expected).amax() < 1e-9, "{tau} vs {expected}");
+        assert!(jc.qdd_ref.amax() > 0.1 && (jc.qd_ref - qd).amax() > 0.01);
+    }
+
     #[test]
     fn reference_filter_reaches_a_step_without_overshoot() {
         let mut jc = JointControl::new(&JointControlConfig::default(), &JointVector::zeros());
