@@ -241,6 +241,21 @@ impl VehicleControl {
 mod tests {
     use super::*;
 
+    /// What the sensors read of a vehicle at rest at `position` with `attitude`, in gravity `g`
+    /// (the accelerometers read `−g`; the wrench uses the attitude and rates alone).
+    fn read_at_rest(attitude: UnitQuaternion<f64>, position: Vector3<f64>, g: f64) -> Measurements {
+        Measurements {
+            q: crate::arm::JointVector::zeros(),
+            qd: crate::arm::JointVector::zeros(),
+            m_dz: crate::arm::JointVector::zeros(),
+            attitude,
+            omega: Vector3::zeros(),
+            specific_force: attitude.inverse() * Vector3::new(0.0, 0.0, -g),
+            position,
+            position_time: 0.0,
+        }
+    }
+
     /// A step of the open loop reaches thrusters of the model's lag through the compensation
     /// as the first-order response of `open_loop_lag_s` (to round-off); without it, with the
     /// thrusters' own 0.2 s.
@@ -303,16 +318,7 @@ mod tests {
             ..VehicleControlConfig::default()
         };
         let open_loop = Force::new(Vector3::new(30.0, -20.0, 10.0), Vector3::new(5.0, 4.0, -3.0));
-        let m = Measurements {
-            q: crate::arm::JointVector::zeros(),
-            qd: crate::arm::JointVector::zeros(),
-            m_dz: crate::arm::JointVector::zeros(),
-            attitude,
-            omega: Vector3::zeros(),
-            specific_force: Vector3::zeros(),
-            position: hover.translation.vector,
-            position_time: 0.0,
-        };
+        let m = read_at_rest(attitude, hover.translation.vector, g);
         let thrust = |position: Vector3<f64>, velocity: Vector3<f64>| {
             let mut nav = Navigation::new(&Default::default(), &Default::default(), position, g);
             nav.velocity = velocity;
@@ -383,16 +389,7 @@ mod tests {
             Vector3::new(0.1, 0.0, 0.0),
             9.81,
         );
-        let m = Measurements {
-            q: crate::arm::JointVector::zeros(),
-            qd: crate::arm::JointVector::zeros(),
-            m_dz: crate::arm::JointVector::zeros(),
-            attitude,
-            omega: Vector3::zeros(),
-            specific_force: Vector3::new(0.0, 0.0, -9.81),
-            position: Vector3::new(0.1, 0.0, 0.0),
-            position_time: 0.0,
-        };
+        let m = read_at_rest(attitude, Vector3::new(0.1, 0.0, 0.0), 9.81);
         let turned = UnitQuaternion::from_euler_angles(0.0, 0.0, 0.3) * attitude;
         let after_a_second = |learn: bool| {
             let mut vc = vc.clone();
