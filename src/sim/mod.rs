@@ -574,6 +574,8 @@ pub fn simulate(
         let state = plant.state;
         let (t_world_tool, cs, jacobian, damping) = touch(&mut contact, &plant.system, &state);
         let tip = t_world_tool.translation.vector;
+        // ‖e‖: the tool tip minus where the control system wants it, `P* + ΔP*`.
+        let deviation = tip - target.translation.vector;
         let m_ez_true = external_moments(&plant.system, &state, &jacobian, &cs.wrench.lin);
         if k.is_multiple_of(log_every) {
             rec.push(Row::new(&record::RowInput {
@@ -581,6 +583,7 @@ pub fn simulate(
                 clock,
                 sample: &s,
                 offset,
+                deviation: &deviation,
                 state: &state,
                 hover: &h,
                 q_ref: &joints.q_ref,
@@ -602,7 +605,7 @@ pub fn simulate(
             f_k_id: s.k.dot(&f_imp_est),
             in_contact: cs.in_contact(),
             m_ez_error: (id.m_ez - m_ez_true_prev).amax(),
-            deviation: (tip - target.translation.vector).norm(),
+            deviation: deviation.norm(),
             path_error: {
                 let d = tip - s.position.coords;
                 (d - s.k * s.k.dot(&d)).norm()

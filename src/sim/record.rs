@@ -81,6 +81,8 @@ pub struct RowInput<'a> {
     pub sample: &'a Sample,
     /// The FCU's offset, m.
     pub offset: f64,
+    /// The tool tip minus where the control system wants it (`P* + ΔP*`), m.
+    pub deviation: &'a Vector3<f64>,
     /// The plant's state.
     pub state: &'a State,
     /// The stabilisation pose.
@@ -133,7 +135,7 @@ impl Row {
             },
             offset: i.offset,
             tool: tip,
-            e: tip - (s.position.coords + s.k * i.offset),
+            e: *i.deviation,
             r: i.state.t_world_body.translation.vector - i.hover.translation.vector,
             rpy: [phi, theta, psi],
             thrusts: i.thrusts.to_vec(),
