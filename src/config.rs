@@ -1,34 +1,89 @@
 //! Reading TOML configuration files.
 //!
 //! Every configuration struct is `#[serde(default, deny_unknown_fields)]` with a `Default`: a
-//! missing key takes its default, a misspelt key is an error naming the key, the file and the line.
+//! missing key takes its default, a misspelt key is an error naming the key, the file and the line,
+//! and so is an array of the wrong length.
 
 use crate::error::{Error, Result};
+use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::path::{Path, PathBuf};
 
 /// Parses a configuration from TOML text; `origin` names the text in errors (usually the path).
 ///
 /// # Errors
-/// [`Error::Input`] naming `origin`, the line, and what is wrong (unknown key, wrong type...).
-pub fn from_toml_str<T: DeserializeOwned>(text: &str, origin: &str) -> Result<T> {
-    toml::from_str(text).map_err(|e| {
+/// [`Error::Input`] naming `origin`, the line, and what is wrong (unknown key, wrong type, an
+/// array of the wrong length...).
+pub fn from_toml_str<T: DeserializeOwned + Serialize>(text: &str, origin: &str) -> Result<T> {
+    let at = |line: Option<usize>| match line {
+        Some(l) => format!("{origin} line {l}"),
+        None => origin.to_string(),
+    };
+    let value: T = toml::from_str(text).map_err(|e| {
         let line = e
             .span()
             .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-        let what = match line {
-            Some(l) => format!("{origin} line {l}"),
-            None => origin.to_string(),
+        Error::input(at(line), e.message())
+    })?;
+    // A fixed-size array (`[f64; 3]`) takes the first values of a longer one and drops the
+    // rest: the resolved value, written back, holds what was kept.
+    if let (Ok(given), Ok(toml::Value::Table(kept))) =
+        (text.parse::<toml::Table>(), toml::Value::try_from(&value))
+        && let Some((key, n, m)) = array_kept_short(&given, &kept, "")
+    {
+        // The key's own name, without its tables and indices: `rows[0].inertia[1]` → `inertia`.
+        let last = key
+            .rsplit('.')
+            .next()
+            .and_then(|k| k.split('[').next())
+            .unwrap_or(&key);
+        let line = text
+            .lines()
+            .position(|l| {
+                l.trim_start()
+                    .strip_prefix(last)
+                    .is_some_and(|r| r.trim_start().starts_with('='))
+            })
+            .map(|i| i + 1);
+        return Err(Error::input(
+            at(line),
+            format!("{key} has {n} values, {m} expected"),
+        ));
+    }
+    Ok(value)
+}
+
+/// The first array of `given` whose kept value (the same key in `kept`) is shorter: its key,
+/// and the lengths given and kept.
+fn array_kept_short(given: &toml::Table, kept: &toml::Table, prefix: &str) -> Option<(String, usize, usize)> {
+    given.iter().find_map(|(k, g)| {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
         };
-        Error::input(what, e.message())
+        value_kept_short(g, kept.get(k)?, key)
     })
+}
+
+fn value_kept_short(given: &toml::Value, kept: &toml::Value, key: String) -> Option<(String, usize, usize)> {
+    match (given, kept) {
+        (toml::Value::Table(g), toml::Value::Table(k)) => array_kept_short(g, k, &key),
+        (toml::Value::Array(g), toml::Value::Array(k)) if g.len() != k.len() => Some((key, g.len(), k.len())),
+        (toml::Value::Array(g), toml::Value::Array(k)) => g
+            .iter()
+            .zip(k)
+            .enumerate()
+            .find_map(|(i, (g, k))| value_kept_short(g, k, format!("{key}[{i}]"))),
+        _ => None,
+    }
 }
 
 /// Loads a configuration file, or the defaults when `path` is `None`.
 ///
 /// # Errors
 /// [`Error::Input`] if the file cannot be read or does not parse.
-pub fn load<T: DeserializeOwned + Default>(path: Option<&Path>) -> Result<T> {
+pub fn load<T: DeserializeOwned + Serialize + Default>(path: Option<&Path>) -> Result<T> {
     match path {
         None => Ok(T::default()),
         Some(p) => {
@@ -86,16 +141,55 @@ mod tests {
     use super::*;
     use serde::Deserialize;
 
-    #[derive(Debug, Deserialize, Default, PartialEq)]
+    #[derive(Debug, Deserialize, Serialize, Default, PartialEq)]
     #[serde(default, deny_unknown_fields)]
     struct Demo {
         seed: u64,
         inner: Inner,
+        rows: Vec<Inner>,
     }
-    #[derive(Debug, Deserialize, Default, PartialEq)]
+    #[derive(Debug, Deserialize, Serialize, Default, PartialEq)]
     #[serde(default, deny_unknown_fields)]
     struct Inner {
         radius_m: f64,
+        xyz_m: [f64; 3],
+        inertia: [[f64; 2]; 2],
+    }
+
+    #[test]
+    fn an_array_longer_than_its_field_is_an_error_naming_it() {
+        for (text, key, line) in [
+            (
+                "[inner]\nxyz_m = [1.0, 2.0, 3.0, 99.0]\n",
+                "inner.xyz_m has 4 values, 3 expected",
+                2,
+            ),
+            (
+                "seed = 1\n[inner]\nxyz_m = [1, 2, 3, \"junk\"]\n",
+                "inner.xyz_m has 4",
+                3,
+            ),
+            (
+                "[[rows]]\ninertia = [[1.0, 0.0], [0.0, 1.0, 7.0]]\n",
+                "rows[0].inertia[1] has 3 values, 2 expected",
+                2,
+            ),
+        ] {
+            let err = from_toml_str::<Demo>(text, "x.toml").unwrap_err();
+            let msg = err.to_string();
+            assert_eq!(err.exit_code(), 2);
+            assert!(
+                msg.contains(key) && msg.contains(&format!("x.toml line {line}")),
+                "{msg}"
+            );
+        }
+        // Exact lengths, and lists of any length, are fine.
+        let d: Demo = from_toml_str(
+            "[inner]\nxyz_m = [1.0, 2.0, 3.0]\n[[rows]]\nradius_m = 1.0\n[[rows]]\nradius_m = 2.0\n",
+            "x.toml",
+        )
+        .unwrap();
+        assert_eq!((d.inner.xyz_m, d.rows.len()), ([1.0, 2.0, 3.0], 2));
     }
 
     #[test]

@@ -5,7 +5,29 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    let cli = uvms::cli::Cli::parse();
+    let cli = match uvms::cli::Cli::try_parse() {
+        Ok(cli) => cli,
+        // Help and version go to stdout as clap prints them.
+        Err(e) if !e.use_stderr() => {
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        // A usage error in one line, as every other error: clap's message up to its usage
+        // lines, and where to look.
+        Err(e) => {
+            let rendered = e.render().to_string();
+            let message: Vec<&str> = rendered
+                .lines()
+                .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("For more information"))
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect();
+            let message = message.join(" ");
+            let message = message.strip_prefix("error: ").unwrap_or(&message);
+            eprintln!("error: usage: {message} (see uvms --help)");
+            return ExitCode::from(2);
+        }
+    };
     match uvms::cli::execute(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

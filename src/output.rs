@@ -1,8 +1,10 @@
 //! Output folders whose files appear complete or not at all.
 //!
 //! Every file is written to a temporary name in the same folder (`.NAME.tmp`) and renamed into
-//! place once it is complete, so a failed run leaves nothing half-written. A write that would
-//! replace one of the run's inputs is refused.
+//! place once it is complete, so a failed run leaves nothing half-written. A command declares
+//! the products it may write when it creates the folder, and one whose product (or that
+//! product's temporary name) is one of the run's inputs is refused then, before anything is
+//! written: inputs are never overwritten, and a run is not refused halfway.
 
 use crate::error::{Error, Result};
 use serde::Serialize;
@@ -14,25 +16,51 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Clone)]
 pub struct OutDir {
     dir: PathBuf,
-    inputs: Vec<PathBuf>,
+    products: Vec<&'static str>,
+}
+
+/// What every command writes into its folder besides its products.
+const ALWAYS: [&str; 2] = ["config.toml", "summary.json"];
+
+/// The temporary name a product is written under.
+fn temporary(name: &str) -> String {
+    format!(".{name}.tmp")
 }
 
 impl OutDir {
-    /// Creates the folder (and its parents) if needed. `inputs` are the run's input files: none
-    /// of them may be overwritten.
+    /// Creates the folder (and its parents) if needed, for a command that writes `products`
+    /// (and `config.toml`, `summary.json`). `inputs` are the run's input files: none of them
+    /// may be a product or a product's temporary name.
     ///
     /// # Errors
-    /// [`Error::Input`] if `dir` exists and is not a folder, or cannot be created.
-    pub fn create(dir: &Path, inputs: &[&Path]) -> Result<Self> {
+    /// [`Error::Input`] if an input would be overwritten, if `dir` exists and is not a folder,
+    /// or if it cannot be created.
+    pub fn create(dir: &Path, inputs: &[&Path], products: &[&'static str]) -> Result<Self> {
         if dir.exists() && !dir.is_dir() {
             return Err(Error::input(dir.display(), "--out exists and is not a folder"));
         }
+        let inputs: Vec<PathBuf> = inputs.iter().filter_map(|p| fs::canonicalize(p).ok()).collect();
+        let products: Vec<&'static str> = products.iter().chain(&ALWAYS).copied().collect();
+        for name in &products {
+            for file in [name.to_string(), temporary(name)] {
+                if let Ok(canon) = fs::canonicalize(dir.join(&file))
+                    && let Some(input) = inputs.iter().find(|i| **i == canon)
+                {
+                    return Err(Error::input(
+                        input.display(),
+                        format!(
+                            "is an input, and this command writes {file} into --out {}: choose another --out",
+                            dir.display()
+                        ),
+                    ));
+                }
+            }
+        }
         fs::create_dir_all(dir)
             .map_err(|e| Error::input(dir.display(), format!("cannot create the output folder: {e}")))?;
-        let inputs = inputs.iter().filter_map(|p| fs::canonicalize(p).ok()).collect();
         Ok(OutDir {
             dir: dir.to_path_buf(),
-            inputs,
+            products,
         })
     }
 
@@ -46,22 +74,21 @@ impl OutDir {
         self.dir.join(name)
     }
 
-    /// Writes `name` through `fill`, atomically (temporary name, then rename).
+    /// Writes `name`, one of the products declared at [`OutDir::create`], through `fill`,
+    /// atomically (temporary name, then rename).
     ///
     /// # Errors
-    /// [`Error::Input`] if the target is one of the run's inputs; [`Error::Failed`] if writing
-    /// fails (the temporary file is removed); any error `fill` returns.
+    /// [`Error::Failed`] if `name` was not declared (the inputs were not checked against it)
+    /// or writing fails (the temporary file is removed); any error `fill` returns.
     pub fn write_with(&self, name: &str, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<PathBuf> {
         let target = self.file(name);
-        if let Ok(canon) = fs::canonicalize(&target)
-            && self.inputs.contains(&canon)
-        {
-            return Err(Error::input(
-                target.display(),
-                "refusing to overwrite an input file; choose another --out",
+        if !self.products.iter().any(|p| *p == name) {
+            return Err(Error::failed(
+                format!("write {}", target.display()),
+                "not a declared product of this command (the inputs were not checked against it)",
             ));
         }
-        let tmp = self.dir.join(format!(".{name}.tmp"));
+        let tmp = self.dir.join(temporary(name));
         let stage = format!("write {}", target.display());
         let result = (|| {
             let file = fs::File::create(&tmp).map_err(|e| Error::failed(&stage, e))?;
@@ -116,7 +143,7 @@ mod tests {
     #[test]
     fn failed_fill_leaves_nothing() {
         let dir = tempfile::tempdir().unwrap();
-        let out = OutDir::create(dir.path(), &[]).unwrap();
+        let out = OutDir::create(dir.path(), &[], &["a.txt"]).unwrap();
         let err = out
             .write_with("a.txt", |w| {
                 w.write_all(b"half").unwrap();
@@ -128,13 +155,34 @@ mod tests {
     }
 
     #[test]
-    fn refuses_to_overwrite_an_input() {
+    fn refuses_an_input_among_the_products_before_writing() {
         let dir = tempfile::tempdir().unwrap();
-        let input = dir.path().join("scan.ply");
+        let sub = dir.path().join("out");
+        // The product itself, its temporary name, and the files every command writes.
+        for name in ["scan.ply", ".scan.ply.tmp", "config.toml"] {
+            fs::create_dir_all(&sub).unwrap();
+            let input = sub.join(name);
+            fs::write(&input, b"x").unwrap();
+            let err = OutDir::create(&sub, &[&input], &["scan.ply"]).unwrap_err();
+            assert_eq!(err.exit_code(), 2);
+            let msg = err.to_string();
+            assert!(msg.contains(name) && !msg.contains('\n'), "{msg}");
+            assert_eq!(fs::read(&input).unwrap(), b"x");
+            fs::remove_dir_all(&sub).unwrap();
+        }
+        // An input in the folder that is no product is fine, and a missing folder is not made
+        // when refused.
+        let input = dir.path().join("trajectory.csv");
         fs::write(&input, b"x").unwrap();
-        let out = OutDir::create(dir.path(), &[&input]).unwrap();
-        let err = out.write_bytes("scan.ply", b"y").unwrap_err();
-        assert_eq!(err.exit_code(), 2);
-        assert_eq!(fs::read(&input).unwrap(), b"x");
+        assert!(OutDir::create(dir.path(), &[&input], &["scan.ply"]).is_ok());
+    }
+
+    #[test]
+    fn refuses_an_undeclared_product() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = OutDir::create(dir.path(), &[], &["a.txt"]).unwrap();
+        assert_eq!(out.write_bytes("b.txt", b"y").unwrap_err().exit_code(), 1);
+        assert!(out.write_bytes("summary.json", b"{}").is_ok());
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 }

@@ -149,7 +149,7 @@ impl Plant {
         };
         if !next.is_finite() {
             return Err(Error::failed(
-                "sim",
+                "plant",
                 format!("the state diverged at t = {:.6} s", self.time + dt),
             ));
         }

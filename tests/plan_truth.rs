@@ -478,7 +478,7 @@ fn trajectory_file_round_trip_in_the_world_frame() {
     cfg.timing.dwell_s = 2.0;
     let p = plan(&scene.input(), &cfg).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let out = uvms::output::OutDir::create(dir.path(), &[]).unwrap();
+    let out = uvms::output::OutDir::create(dir.path(), &[], &uvms::cli::plan::products()).unwrap();
     p.write(&out, 10).unwrap();
     let back = Trajectory::read_csv(&dir.path().join("trajectory.csv")).unwrap();
     assert_eq!(back.samples.len(), p.trajectory.samples.len());

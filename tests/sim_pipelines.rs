@@ -395,3 +395,78 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     let o = run(&["run", "no/such/pipeline.toml"]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// Values that would make the run endless or its search astronomic are input errors found
+/// before anything is written, and a run never replaces its own inputs, even halfway.
+#[test]
+fn endless_runs_and_clashing_outputs_are_refused_before_writing() {
+    let dir = tempfile::tempdir().unwrap();
+    for (i, (extra, key)) in [
+        ("[sim.hover]\nstep_m = 1e-6", "sim.hover"),
+        ("[sim.hover]\nhorizontal_range_m = 1e300", "sim.hover"),
+        (
+            "[sim.hover]\nposition_m = [0.0, 0.0, 0.0]\nyaw_deg = nan",
+            "sim.hover.yaw_deg",
+        ),
+        (
+            "[sim.navigation]\nlevelling_s = 1e300",
+            "sim.navigation.levelling_s",
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let d = dir.path().join(i.to_string());
+        std::fs::create_dir_all(&d).unwrap();
+        let p = variant(&d, extra);
+        let out = d.join("out");
+        let o = run(&["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{extra}: {err}");
+        assert!(err.contains(key) && err.lines().count() == 1, "{extra}: {err}");
+        assert!(!out.exists(), "{extra} left files");
+    }
+    // A trajectory a billion seconds long.
+    let (out, _) = bottle_run();
+    let text = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let last = lines.pop().unwrap();
+    let (_, rest) = last.split_once(',').unwrap();
+    lines.push(format!("1e9,{rest}"));
+    let long = dir.path().join("long.csv");
+    std::fs::write(&long, lines.join("\n") + "\n").unwrap();
+    let sim_out = dir.path().join("long_out");
+    let o = run(&[
+        "sim",
+        "--trajectory",
+        long.to_str().unwrap(),
+        "--surface",
+        repo("data/scans/bottle/scene_mesh.ply").to_str().unwrap(),
+        "--out",
+        sim_out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("control periods") && err.lines().count() == 1,
+        "{err}"
+    );
+    // Repeating a run from its own folder's config.toml into that folder: refused before the
+    // first stage, every product as it was.
+    let again = dir.path().join("again");
+    std::fs::create_dir_all(&again).unwrap();
+    let config = again.join("config.toml");
+    std::fs::copy(variant(dir.path(), ""), &config).unwrap();
+    std::fs::write(again.join("summary.json"), "{}").unwrap();
+    let o = run(&["run", config.to_str().unwrap(), "--out", again.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("config.toml") && err.lines().count() == 1, "{err}");
+    let mut left: Vec<_> = std::fs::read_dir(&again)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["config.toml", "summary.json"]);
+    assert_eq!(std::fs::read_to_string(again.join("summary.json")).unwrap(), "{}");
+}

@@ -362,7 +362,7 @@ fn a_reference_file_replaces_the_generated_bottle() {
     let a = synthesize(&generated).unwrap();
     // The same bottle, through a PLY file: the same scene, point for point.
     let path = dir.path().join("bottle.ply");
-    let out = uvms::output::OutDir::create(dir.path(), &[]).unwrap();
+    let out = uvms::output::OutDir::create(dir.path(), &[], &["bottle.ply"]).unwrap();
     out.write_with("bottle.ply", |w| {
         uvms::io::ply::write_mesh(w, a.reference.as_ref().unwrap())
     })

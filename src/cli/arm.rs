@@ -175,11 +175,27 @@ pub fn run(args: &ArmArgs, _ctx: &Ctx) -> Result<Report> {
             );
         }
     }
+    // A number out of range serialises as `null`.
+    if has_null(&summary) {
+        return Err(Error::input(
+            format!("{model_name} at --q/--qd/--qdd"),
+            "the model gives values that are not finite there (joint rates, accelerations or model values too large)",
+        ));
+    }
     Ok(Report {
         summary,
         text,
         out: None,
     })
+}
+
+fn has_null(v: &serde_json::Value) -> bool {
+    match v {
+        serde_json::Value::Null => true,
+        serde_json::Value::Array(a) => a.iter().any(has_null),
+        serde_json::Value::Object(o) => o.values().any(has_null),
+        _ => false,
+    }
 }
 
 fn matrix_rows(m: &Matrix6<f64>) -> [[f64; 6]; 6] {

@@ -66,6 +66,12 @@ pub fn init_mode(spec: &str) -> Result<InitMode> {
     }
 }
 
+/// The pose file an `--init` names (`None` for `auto`, `identity` and none given): one of the
+/// run's inputs.
+pub fn init_file(spec: &str) -> Option<&Path> {
+    (!matches!(spec, "" | "auto" | "identity")).then(|| Path::new(spec))
+}
+
 /// The check part of a summary (DESIGN.md keys plus diagnostics).
 pub fn check_summary(r: &CheckResult) -> serde_json::Value {
     let reg = &r.registration;
@@ -177,6 +183,15 @@ pub fn check_text(r: &CheckResult) -> String {
     t
 }
 
+/// What `uvms check --out` writes besides its summary and configuration.
+pub const PRODUCTS: [&str; 5] = [
+    "pose.json",
+    "scan_surface.ply",
+    "reference_surface.ply",
+    "object.ply",
+    "aligned_reference.ply",
+];
+
 /// Writes what `uvms check` produces besides its summary and configuration: `pose.json`,
 /// `scan_surface.ply`, `reference_surface.ply`, `object.ply` and `aligned_reference.ply` (the
 /// model file `reference` moved by `t_scan_reference`). Returns a line for the report's text.
@@ -225,7 +240,8 @@ pub fn run(args: &CheckArgs, _ctx: &Ctx) -> Result<Report> {
             let mut inputs: Vec<&Path> = vec![&args.scan, &args.reference];
             inputs.extend(args.ground_truth.as_deref());
             inputs.extend(args.config.as_deref());
-            Some(OutDir::create(dir, &inputs)?)
+            inputs.extend(init_file(&args.init));
+            Some(OutDir::create(dir, &inputs, &PRODUCTS)?)
         }
         None => None,
     };

@@ -8,7 +8,7 @@
 //! Without `--reference`, only the line pattern can be planned (soil sampling on a patch of
 //! sediment): the scan is cleaned, the seabed plane found and its inliers triangulated.
 
-use super::check::{check_summary, check_text, init_mode, write_check_products};
+use super::check::{self, check_summary, check_text, init_file, init_mode, write_check_products};
 use super::segment::{load_reference, parse_vector3, segmentation_summary};
 use super::{Ctx, Report};
 use crate::error::{Error, Result};
@@ -159,7 +159,7 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
     let mut files: Vec<&Path> = inputs.files();
     files.extend(args.config.as_deref());
     files.extend(cfg.plan.polyline.file.as_deref());
-    let out = OutDir::create(&args.out, &files)?;
+    let out = OutDir::create(&args.out, &files, &products())?;
     let mut stage = plan_stage(&inputs, &cfg, &out)?;
     out.write_toml("config.toml", &cfg)?;
     let _ = writeln!(
@@ -201,8 +201,17 @@ impl PlanInputs {
         let mut v: Vec<&Path> = vec![&self.scan];
         v.extend(self.reference.as_deref());
         v.extend(self.ground_truth.as_deref());
+        v.extend(init_file(&self.init));
         v
     }
+}
+
+/// What the planning stage may write besides a summary and configuration: the check's
+/// products and the trajectory.
+pub fn products() -> Vec<&'static str> {
+    let mut v = check::PRODUCTS.to_vec();
+    v.extend(["trajectory.csv", "trajectory.ply"]);
+    v
 }
 
 /// What the planning stage produced.

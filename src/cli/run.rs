@@ -9,6 +9,7 @@
 //! `uvms sim` write into one folder (default `out/NAME` for `pipelines/NAME.toml`); the summary
 //! nests each stage's summary under its name (`check`, `plan`, `sim`) with the stage timings.
 
+use super::check::init_file;
 use super::plan::{PlanCommandConfig, PlanInputs, plan_stage};
 use super::sim::{resolve_paths, sim_stage};
 use super::{Ctx, Report};
@@ -65,6 +66,9 @@ impl Pipeline {
         p.input.scan = relative_to(file, &p.input.scan);
         p.input.reference = p.input.reference.as_deref().map(|r| relative_to(file, r));
         p.input.ground_truth = p.input.ground_truth.as_deref().map(|r| relative_to(file, r));
+        if let Some(init) = init_file(&p.input.init) {
+            p.input.init = relative_to(file, init).display().to_string();
+        }
         p.plan.polyline.file = p.plan.polyline.file.as_deref().map(|r| relative_to(file, r));
         resolve_paths(&mut p.sim, file);
         // Every stage's values before the first stage runs: a bad value of a late stage must
@@ -98,7 +102,9 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     if let Some(missing) = inputs.iter().find(|f| !f.exists()) {
         return Err(Error::input(missing.display(), "no such file"));
     }
-    let out = OutDir::create(&out_dir, &inputs)?;
+    let mut products = super::plan::products();
+    products.extend(super::sim::PRODUCTS);
+    let out = OutDir::create(&out_dir, &inputs, &products)?;
     let stages = ctx.progress(2, "pipeline");
     let mut text = format!("pipeline     {}\n", args.pipeline.display());
     let started = Instant::now();

@@ -211,7 +211,11 @@ pub fn run(args: &SegmentArgs, _ctx: &Ctx) -> Result<Report> {
     if let Some(c) = &args.config {
         inputs.push(c);
     }
-    let out = OutDir::create(&args.out, &inputs)?;
+    let out = OutDir::create(
+        &args.out,
+        &inputs,
+        &["segmented.ply", "clusters.ply", "object.ply", "seabed.ply"],
+    )?;
     let (scan, _) = read_cloud(&args.scan)?;
     if scan.is_empty() {
         return Err(Error::input(args.scan.display(), "the scan has no points"));

@@ -117,6 +117,20 @@ pub fn sim_text(s: &SimSummary) -> String {
     t
 }
 
+/// What the simulation writes besides a summary and configuration: the time series and the
+/// figures of [`figures`] as SVG and PNG.
+pub const PRODUCTS: [&str; 9] = [
+    "timeseries.csv",
+    "joint_moments.svg",
+    "joint_moments.png",
+    "force.svg",
+    "force.png",
+    "deviations.svg",
+    "deviations.png",
+    "joints.svg",
+    "joints.png",
+];
+
 /// Loads the surface and the model, simulates, writes the products into `out`; the summary
 /// (as JSON) and the readable account.
 ///
@@ -180,7 +194,7 @@ pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
     inputs.extend(cfg.sim.surface.as_deref());
     inputs.extend(cfg.sim.model.as_deref());
     inputs.extend(args.config.as_deref());
-    let out = OutDir::create(&args.out, &inputs)?;
+    let out = OutDir::create(&args.out, &inputs, &PRODUCTS)?;
     let (summary, text) = sim_stage(&trajectory, &cfg.sim, &cfg.frames, &out, ctx)?;
     out.write_toml("config.toml", &cfg)?;
     Ok(Report {

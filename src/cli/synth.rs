@@ -47,7 +47,11 @@ pub fn run(args: &SynthArgs, _ctx: &Ctx) -> Result<Report> {
     }
     cfg.validate()?;
     let inputs: Vec<&std::path::Path> = args.config.iter().map(|p| p.as_path()).collect();
-    let out = OutDir::create(&args.out, &inputs)?;
+    let out = OutDir::create(
+        &args.out,
+        &inputs,
+        &["scan.ply", "scene_mesh.ply", "reference.ply", "truth.json"],
+    )?;
     let started = std::time::Instant::now();
     let s = synthesize(&cfg)?;
     let elapsed = started.elapsed().as_secs_f64();

@@ -103,9 +103,29 @@ impl HoverConfig {
         {
             return Err(Error::input("sim.hover.position_m", "must be finite"));
         }
+        if !self.yaw_deg.is_finite() {
+            return Err(Error::input("sim.hover.yaw_deg", "must be finite"));
+        }
+        // The coarse grid's candidates: positions across, heights, headings.
+        let across = 2.0 * (self.horizontal_range_m / self.step_m).floor() + 1.0;
+        let candidates = across
+            * across
+            * (((hi - lo) / self.step_m).floor() + 1.0)
+            * (360.0 / self.yaw_step_deg).round().max(1.0);
+        if !(candidates <= MAX_CANDIDATES) {
+            return Err(Error::input(
+                "sim.hover",
+                format!(
+                    "the search grid (horizontal_range_m, height_range_m, step_m, yaw_step_deg) has {candidates:.2e} candidates: at most {MAX_CANDIDATES:.0e}"
+                ),
+            ));
+        }
         Ok(())
     }
 }
+
+/// The most candidates of the coarse search: 10⁶, some 70 times the default grid's.
+const MAX_CANDIDATES: f64 = 1e6;
 
 /// The chosen stabilisation pose.
 #[derive(Debug, Clone, Copy, PartialEq)]

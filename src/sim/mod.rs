@@ -283,6 +283,12 @@ impl SimConfig {
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
         positive("sim.control_rate_hz", self.control_rate_hz)?;
+        if self.control_rate_hz > 100_000.0 {
+            return Err(Error::input(
+                "sim.control_rate_hz",
+                format!("must be at most 100000 Hz, got {}", self.control_rate_hz),
+            ));
+        }
         positive("sim.log_rate_hz", self.log_rate_hz)?;
         if self.log_rate_hz > self.control_rate_hz {
             return Err(Error::input(
@@ -374,6 +380,26 @@ pub fn simulate(
         return Err(Error::input("trajectory", "has no samples"));
     };
     let (t0, t_end) = (first.t, last.t);
+    // The longest run the trajectory, the tail and the dwell's wait can make, in periods.
+    let periods = (t_end - t0 + cfg.tail_s + cfg.dwell.max_wait_s) * cfg.control_rate_hz;
+    if !(periods <= MAX_PERIODS) {
+        return Err(Error::input(
+            "sim",
+            format!(
+                "the run could take {periods:.3e} control periods (trajectory {:.3e} s, sim.tail_s {:.3e} s, sim.dwell.max_wait_s {:.3e} s at sim.control_rate_hz {}): at most {MAX_PERIODS:.0e}",
+                t_end - t0,
+                cfg.tail_s,
+                cfg.dwell.max_wait_s,
+                cfg.control_rate_hz
+            ),
+        ));
+    }
+    if plant_model.environment.current != [0.0; 3] {
+        return Err(Error::input(
+            "model environment.current",
+            "the simulation's sea current is [sim.scenario] current_m_s; set it there and leave the model's at zero",
+        ));
+    }
     let mut plant_model = plant_model.clone();
     plant_model.environment.current = cfg.scenario.current_m_s;
     let ctrl_model = cfg.controller_model.apply(&plant_model);
@@ -679,6 +705,10 @@ pub fn simulate(
         summary,
     })
 }
+
+/// The most control periods a run may take: 10⁸, a day of simulated time at 1 kHz (some
+/// ten minutes of computing at 150× real time).
+const MAX_PERIODS: f64 = 1e8;
 
 /// Iterations of the held station's fixed point, and the step below which it has settled, m/s.
 /// Each iteration takes half the thrust's residual: the full residual overshoots by the arm's
