@@ -29,9 +29,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct AccuracyConfig {
-    /// Parallel test lines across the object.
+    /// Parallel test lines across the object (1 to [`MAX_LINES`]).
     pub lines: usize,
-    /// Samples along each line.
+    /// Samples along each line (1 to [`MAX_SAMPLES_PER_LINE`]).
     pub samples_per_line: usize,
     /// The lines cover the object's extent in the image plane shrunk by this fraction at each
     /// end (0: edge to edge).
@@ -45,6 +45,36 @@ impl Default for AccuracyConfig {
             samples_per_line: 101,
             inset: 0.02,
         }
+    }
+}
+
+/// Most test lines, and most samples per line: 50 and 10 times the defaults, so at most a
+/// million rays (56 MB), each cast on both surfaces.
+pub const MAX_LINES: usize = 1000;
+/// See [`MAX_LINES`].
+pub const MAX_SAMPLES_PER_LINE: usize = 1000;
+
+impl AccuracyConfig {
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the field (`accuracy.…`).
+    pub fn validate(&self) -> Result<()> {
+        use crate::config::count_between;
+        count_between("accuracy.lines", self.lines, 1, MAX_LINES)?;
+        count_between(
+            "accuracy.samples_per_line",
+            self.samples_per_line,
+            1,
+            MAX_SAMPLES_PER_LINE,
+        )?;
+        if !(0.0..0.5).contains(&self.inset) {
+            return Err(Error::input(
+                "accuracy.inset",
+                format!("must be in [0, 0.5), got {}", self.inset),
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -62,19 +92,14 @@ pub struct TestRay {
 /// The test trajectories for the object `points` (scan frame, camera at `viewpoint`).
 ///
 /// # Errors
-/// [`Error::Input`] for zero lines or samples; [`Error::Failed`] (stage `accuracy`) for an empty
-/// object.
+/// [`Error::Input`] for a bad configuration ([`AccuracyConfig::validate`]); [`Error::Failed`]
+/// (stage `accuracy`) for an empty object.
 pub fn test_rays(
     points: &[Point3<f64>],
     viewpoint: &Point3<f64>,
     cfg: &AccuracyConfig,
 ) -> Result<Vec<TestRay>> {
-    if cfg.lines == 0 || cfg.samples_per_line == 0 || !(0.0..0.5).contains(&cfg.inset) {
-        return Err(Error::input(
-            "accuracy",
-            "lines and samples_per_line must be ≥ 1 and inset in [0, 0.5)",
-        ));
-    }
+    cfg.validate()?;
     let shape = principal_axes(points, 0.0).ok_or_else(|| Error::failed("accuracy", "no object points"))?;
     let to_object = shape.centroid - viewpoint;
     let range = to_object.norm();
@@ -337,5 +362,29 @@ mod tests {
         let e = truth_errors(&model, None, &shifted, &truth).unwrap();
         assert!((e.translation_error_m - 0.002).abs() < 1e-12);
         assert!(e.add_s_m > 0.001 && e.add_s_m < 0.002);
+    }
+
+    #[test]
+    fn huge_ray_counts_are_input_errors_not_allocations() {
+        let object = [Point3::new(0.0, 0.0, 1.0), Point3::new(0.1, 0.05, 1.0)];
+        for (lines, samples, field) in [
+            (usize::MAX, 101, "accuracy.lines"),
+            (1_000_000_000, 101, "accuracy.lines"),
+            (21, usize::MAX, "accuracy.samples_per_line"),
+            (21, 1_000_000_000, "accuracy.samples_per_line"),
+            (0, 101, "accuracy.lines"),
+        ] {
+            let cfg = AccuracyConfig {
+                lines,
+                samples_per_line: samples,
+                ..AccuracyConfig::default()
+            };
+            crate::perception::assert_bad_input(test_rays(&object, &Point3::origin(), &cfg), field);
+        }
+        let cfg = AccuracyConfig {
+            inset: f64::NAN,
+            ..AccuracyConfig::default()
+        };
+        crate::perception::assert_bad_input(cfg.validate(), "accuracy.inset");
     }
 }

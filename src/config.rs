@@ -124,6 +124,27 @@ pub fn non_negative(what: &str, v: f64) -> Result<()> {
     }
 }
 
+/// `Ok` if `ok`, else an input error naming `what` (a configuration key) with `why`.
+///
+/// # Errors
+/// [`Error::Input`] naming `what`.
+pub fn require(ok: bool, what: impl std::fmt::Display, why: impl std::fmt::Display) -> Result<()> {
+    if ok { Ok(()) } else { Err(Error::input(what, why)) }
+}
+
+/// `Ok` if `lo ≤ v ≤ hi`, else an input error naming `what`: a count with a documented bound
+/// (a larger count would only exhaust memory or time).
+///
+/// # Errors
+/// [`Error::Input`] naming `what`, with the bounds and the value.
+pub fn count_between(what: impl std::fmt::Display, v: usize, lo: usize, hi: usize) -> Result<()> {
+    require(
+        (lo..=hi).contains(&v),
+        what,
+        format!("must be between {lo} and {hi}, got {v}"),
+    )
+}
+
 /// `path` relative to the folder of the file `base` (unless absolute), made absolute: the
 /// resolved configuration a command writes (`config.toml`) then names the same files wherever
 /// it is read from (a path relative to the working folder, read back relative to the output

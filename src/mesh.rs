@@ -54,7 +54,8 @@ impl TriangleMesh {
 
     /// `n` points spread uniformly over the surface (area-weighted, seeded `ChaCha8Rng`) with the
     /// normals of the triangles they lie on. Degenerate triangles get none; an empty or
-    /// zero-area mesh gives none.
+    /// zero-area mesh gives none. The cost is linear in `n`: callers bound it (the reference
+    /// model's [`crate::register::MAX_MESH_SAMPLES`]).
     pub fn sample_surface(&self, n: usize, seed: u64) -> (Vec<Point3<f64>>, Vec<Vector3<f64>>) {
         use rand::{RngExt, SeedableRng};
         let nv = self.vertices.len();
@@ -71,8 +72,10 @@ impl TriangleMesh {
             return (Vec::new(), Vec::new());
         }
         let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(seed);
-        let mut points = Vec::with_capacity(n);
-        let mut normals = Vec::with_capacity(n);
+        // Reserved up front only up to a million: a larger `n` grows as it goes, and fails as an
+        // allocation error, never as a capacity overflow.
+        let mut points = Vec::with_capacity(n.min(1 << 20));
+        let mut normals = Vec::with_capacity(n.min(1 << 20));
         while points.len() < n {
             let x = rng.random::<f64>() * total;
             let t = cumulative.partition_point(|&c| c <= x).min(cumulative.len() - 1);

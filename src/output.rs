@@ -82,7 +82,7 @@ impl OutDir {
     /// or writing fails (the temporary file is removed); any error `fill` returns.
     pub fn write_with(&self, name: &str, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<PathBuf> {
         let target = self.file(name);
-        if !self.products.iter().any(|p| *p == name) {
+        if !self.products.contains(&name) {
             return Err(Error::failed(
                 format!("write {}", target.display()),
                 "not a declared product of this command (the inputs were not checked against it)",

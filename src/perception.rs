@@ -20,6 +20,7 @@ use crate::cloud::filter::{
 };
 use crate::cloud::normals::NormalConfig;
 use crate::cloud::pca::{PrincipalAxes, principal_axes};
+use crate::config::{non_negative, require};
 use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
@@ -39,11 +40,11 @@ use std::time::Instant;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CleanConfig {
-    /// Closest kept range from the camera, metres.
+    /// Closest kept range from the camera, metres (≥ 0).
     pub min_range_m: f64,
-    /// Farthest kept range from the camera, metres; 0 means no limit.
+    /// Farthest kept range from the camera, metres: above `min_range_m`, or 0 for no limit.
     pub max_range_m: f64,
-    /// Voxel edge for down-sampling, metres; 0 keeps every point.
+    /// Voxel edge for down-sampling, metres (≥ 0); 0 keeps every point.
     pub voxel_m: f64,
     /// Remove statistical outliers (flying pixels, speckle).
     pub remove_outliers: bool,
@@ -67,7 +68,8 @@ impl Default for CleanConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ViewConfig {
-    /// The camera's centre in the scan frame, metres (the origin for a stereo scan in `S`).
+    /// The camera's centre in the scan frame, metres (the origin for a stereo scan in `S`;
+    /// within ±[`MAX_COORDINATE_M`]).
     pub camera_m: [f64; 3],
 }
 
@@ -81,6 +83,53 @@ impl ViewConfig {
     /// The camera's centre.
     pub fn camera(&self) -> Point3<f64> {
         Point3::from(self.camera_m)
+    }
+
+    /// Checks `camera_m`: three finite coordinates within ±[`MAX_COORDINATE_M`] (squared
+    /// distances from farther away overflow).
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming `view.camera_m`.
+    pub fn validate(&self) -> Result<()> {
+        check_camera(&self.camera())
+    }
+}
+
+/// Largest coordinate of the camera's centre, metres: 1000 km, far beyond any scene, and far
+/// below where squared distances overflow.
+pub const MAX_COORDINATE_M: f64 = 1e6;
+
+/// `Ok` if `camera` is finite and within ±[`MAX_COORDINATE_M`] on every axis, else an input error
+/// naming `view.camera_m`.
+fn check_camera(camera: &Point3<f64>) -> Result<()> {
+    require(
+        camera.iter().all(|c| c.abs() <= MAX_COORDINATE_M),
+        "view.camera_m",
+        format!(
+            "must be three finite coordinates within ±{MAX_COORDINATE_M} m, got [{}, {}, {}]",
+            camera.x, camera.y, camera.z
+        ),
+    )
+}
+
+impl CleanConfig {
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the field (`clean.…`).
+    pub fn validate(&self) -> Result<()> {
+        non_negative("clean.min_range_m", self.min_range_m)?;
+        non_negative("clean.max_range_m", self.max_range_m)?;
+        require(
+            self.max_range_m == 0.0 || self.max_range_m > self.min_range_m,
+            "clean.max_range_m",
+            format!(
+                "must exceed clean.min_range_m ({}) or be 0 for no limit, got {}",
+                self.min_range_m, self.max_range_m
+            ),
+        )?;
+        non_negative("clean.voxel_m", self.voxel_m)?;
+        self.outliers.validate("clean.outliers")
     }
 }
 
@@ -107,6 +156,25 @@ pub struct PerceptionConfig {
     pub surface: SurfaceConfig,
     /// The [59] accuracy estimate.
     pub accuracy: AccuracyConfig,
+}
+
+impl PerceptionConfig {
+    /// Checks every stage's values, so that a bad value of a late stage is reported before the
+    /// first stage runs.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the first bad field (`seabed.threshold_m`, `register.icp.…`).
+    pub fn validate(&self) -> Result<()> {
+        self.view.validate()?;
+        self.clean.validate()?;
+        self.seabed.validate()?;
+        self.cluster.validate()?;
+        self.select.validate()?;
+        self.normals.validate()?;
+        self.register.validate()?;
+        self.surface.validate()?;
+        self.accuracy.validate()
+    }
 }
 
 /// Wall time of one stage.
@@ -194,6 +262,8 @@ pub fn clean(
     cfg: &CleanConfig,
     camera: &Point3<f64>,
 ) -> Result<(PointCloud, CleanReport)> {
+    cfg.validate()?;
+    check_camera(camera)?;
     let input = scan.len();
     let mut cloud: Cow<'_, PointCloud> = if cfg.min_range_m > 0.0 || cfg.max_range_m > 0.0 {
         let gate = RangeCropConfig {
@@ -246,6 +316,7 @@ pub fn segment(
     reference_spans: Option<&Vector3<f64>>,
     cfg: &PerceptionConfig,
 ) -> Result<Segmentation> {
+    cfg.validate()?;
     let mut timings = Timings::default();
     let camera = cfg.view.camera();
     let (cloud, cleaning) = timings.time("clean", || clean(scan, &cfg.clean, &camera))?;
@@ -361,6 +432,7 @@ pub fn check(
     opts: &CheckOptions,
     cfg: &PerceptionConfig,
 ) -> Result<CheckResult> {
+    cfg.validate()?;
     let camera = cfg.view.camera();
     let (segmentation, object_points, mut timings) = if opts.whole_scan {
         let mut t = Timings::default();
@@ -437,4 +509,150 @@ pub fn check(
         truth,
         timings,
     })
+}
+
+/// Asserts that `r` is a bad-input error (exit code 2) on one line naming `field`.
+#[cfg(test)]
+#[track_caller]
+pub(crate) fn assert_bad_input<T: std::fmt::Debug>(r: Result<T>, field: &str) {
+    let e = r.expect_err(field);
+    let msg = e.to_string();
+    assert_eq!(e.exit_code(), 2, "{msg}");
+    assert!(
+        msg.starts_with(&format!("{field}: ")),
+        "{msg} does not name {field}"
+    );
+    assert!(!msg.contains('\n'), "{msg}");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::from_toml_str;
+
+    /// The values the review found accepted, or failing late with the wrong exit code.
+    #[test]
+    fn every_bad_value_is_named_before_work_starts() {
+        for (text, field) in [
+            ("[view]\ncamera_m = [nan, 0.0, 0.0]", "view.camera_m"),
+            ("[view]\ncamera_m = [-1e300, 0.0, 0.0]", "view.camera_m"),
+            ("[clean]\nmin_range_m = nan", "clean.min_range_m"),
+            ("[clean]\nmin_range_m = -1.0", "clean.min_range_m"),
+            ("[clean]\nmax_range_m = nan", "clean.max_range_m"),
+            (
+                "[clean]\nmin_range_m = 2.0\nmax_range_m = 1.0",
+                "clean.max_range_m",
+            ),
+            ("[clean]\nvoxel_m = nan", "clean.voxel_m"),
+            (
+                "[clean.outliers]\nneighbours = 18446744073709551615",
+                "clean.outliers.neighbours",
+            ),
+            (
+                "[seabed]\nobject_min_height_m = nan",
+                "seabed.object_min_height_m",
+            ),
+            (
+                "[seabed]\nobject_max_height_m = nan",
+                "seabed.object_max_height_m",
+            ),
+            ("[seabed]\nmax_threshold_m = inf", "seabed.max_threshold_m"),
+            (
+                "[seabed]\nmax_iterations = 18446744073709551615",
+                "seabed.max_iterations",
+            ),
+            ("[cluster]\nspan_quantile = nan", "cluster.span_quantile"),
+            ("[cluster]\nspan_quantile = 1e300", "cluster.span_quantile"),
+            ("[select]\ndepth_weight = nan", "select.depth_weight"),
+            ("[select]\ndepth_weight = inf", "select.depth_weight"),
+            ("[normals]\nradius_m = nan", "normals.radius_m"),
+            ("[normals]\nneighbours = 1000000000", "normals.neighbours"),
+            ("[register]\nmin_fitness = nan", "register.min_fitness"),
+            (
+                "[register]\nevaluation_distance_m = nan",
+                "register.evaluation_distance_m",
+            ),
+            (
+                "[register]\nmesh_samples = 18446744073709551615",
+                "register.mesh_samples",
+            ),
+            ("[register]\nmesh_samples = 1000000000", "register.mesh_samples"),
+            (
+                "[register.init]\ngate_fraction = 0.004",
+                "register.init.gate_fraction",
+            ),
+            (
+                "[register.init]\nscore_fraction = inf",
+                "register.init.score_fraction",
+            ),
+            (
+                "[register.init]\nrotation_steps = 18446744073709551615",
+                "register.init.rotation_steps",
+            ),
+            ("[register.init]\nrefine = 1000000000", "register.init.refine"),
+            (
+                "[register.hidden_points]\nradius_factor = nan",
+                "register.hidden_points.radius_factor",
+            ),
+            (
+                "[register.icp]\ntranslation_tolerance_m = 0.0",
+                "register.icp.translation_tolerance_m",
+            ),
+            (
+                "[surface]\nmax_view_angle_deg = inf",
+                "surface.max_view_angle_deg",
+            ),
+            (
+                "[surface]\nsmoothing_neighbours = 18446744073709551615",
+                "surface.smoothing_neighbours",
+            ),
+            ("[accuracy]\nlines = 18446744073709551615", "accuracy.lines"),
+            (
+                "[accuracy]\nsamples_per_line = 1000000000",
+                "accuracy.samples_per_line",
+            ),
+        ] {
+            let cfg: PerceptionConfig = from_toml_str(text, "c.toml").unwrap();
+            assert_bad_input(cfg.validate(), field);
+        }
+        PerceptionConfig::default().validate().unwrap();
+    }
+
+    /// A flat patch with a box on it, seen from 1 m.
+    fn scan() -> PointCloud {
+        let mut pts: Vec<Point3<f64>> = (0..4900)
+            .map(|i| {
+                Point3::new(
+                    -0.35 + 0.01 * (i % 70) as f64,
+                    -0.35 + 0.01 * (i / 70) as f64,
+                    1.0,
+                )
+            })
+            .collect();
+        pts.extend((0..400).map(|i| Point3::new(0.005 * (i % 20) as f64, 0.005 * (i / 20) as f64, 0.95)));
+        PointCloud::from_points(pts)
+    }
+
+    #[test]
+    fn stages_reject_bad_values_with_exit_2_not_a_failed_run() {
+        let scan = scan();
+        // A NaN camera left no point "in front of the camera" (exit 1) in the surface stage.
+        let mut cfg = PerceptionConfig::default();
+        cfg.view.camera_m = [f64::NAN, 0.0, 0.0];
+        assert_bad_input(segment(&scan, None, None, &cfg), "view.camera_m");
+        assert_bad_input(
+            clean(&scan, &cfg.clean, &Point3::new(f64::NAN, 0.0, 0.0)),
+            "view.camera_m",
+        );
+        // A NaN span quantile made every span 0 and failed the selection (exit 1).
+        let mut cfg = PerceptionConfig::default();
+        cfg.cluster.span_quantile = f64::NAN;
+        assert_bad_input(
+            segment(&scan, None, Some(&Vector3::new(0.1, 0.1, 0.05)), &cfg),
+            "cluster.span_quantile",
+        );
+        let mut cfg = PerceptionConfig::default();
+        cfg.clean.voxel_m = f64::NAN;
+        assert_bad_input(clean(&scan, &cfg.clean, &Point3::origin()), "clean.voxel_m");
+    }
 }

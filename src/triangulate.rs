@@ -36,10 +36,10 @@ pub struct SurfaceConfig {
     pub max_edge_m: f64,
     /// Multiple of the median nearest-neighbour spacing used when `max_edge_m` is 0.
     pub edge_factor: f64,
-    /// Largest angle between a triangle's normal and the ray from the camera, degrees.
+    /// Largest angle between a triangle's normal and the ray from the camera, degrees (0 to 90).
     pub max_view_angle_deg: f64,
     /// Neighbours of the local plane each point is moved onto before triangulating; 0 keeps the
-    /// raw points.
+    /// raw points (at most [`MAX_SMOOTHING_NEIGHBOURS`]).
     pub smoothing_neighbours: usize,
 }
 
@@ -51,6 +51,34 @@ impl Default for SurfaceConfig {
             max_view_angle_deg: 85.0,
             smoothing_neighbours: 0,
         }
+    }
+}
+
+/// Most neighbours of the smoothing plane: 20 times the usual values (10 to 50); each point
+/// costs a k-NN query and a covariance of `k` points.
+pub const MAX_SMOOTHING_NEIGHBOURS: usize = 1000;
+
+impl SurfaceConfig {
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the field (`surface.…`).
+    pub fn validate(&self) -> Result<()> {
+        crate::config::non_negative("surface.max_edge_m", self.max_edge_m)?;
+        crate::config::positive("surface.edge_factor", self.edge_factor)?;
+        // A normal more than 90° from the view ray is the same plane seen from behind.
+        if !(self.max_view_angle_deg > 0.0 && self.max_view_angle_deg <= 90.0) {
+            return Err(Error::input(
+                "surface.max_view_angle_deg",
+                format!("must be in (0, 90] degrees, got {}", self.max_view_angle_deg),
+            ));
+        }
+        crate::config::count_between(
+            "surface.smoothing_neighbours",
+            self.smoothing_neighbours,
+            0,
+            MAX_SMOOTHING_NEIGHBOURS,
+        )
     }
 }
 
@@ -107,12 +135,7 @@ pub fn triangulate_view(
     camera: &Point3<f64>,
     cfg: &SurfaceConfig,
 ) -> Result<TriangleMesh> {
-    if !(cfg.max_edge_m >= 0.0 && cfg.edge_factor > 0.0 && cfg.max_view_angle_deg > 0.0) {
-        return Err(Error::input(
-            "surface",
-            "max_edge_m must be ≥ 0, edge_factor and max_view_angle_deg > 0",
-        ));
-    }
+    cfg.validate()?;
     let centroid = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / points.len().max(1) as f64;
     let d = (centroid - camera.coords)
         .try_normalize(1e-12)
@@ -318,5 +341,49 @@ mod tests {
         let smooth = rms(&mesh.vertices);
         assert!(smooth < 0.4 * raw, "{smooth} vs {raw}");
         assert!(triangulate_view(&noisy[..2], &[], &Point3::origin(), &SurfaceConfig::default()).is_err());
+    }
+
+    #[test]
+    fn bad_values_name_their_field() {
+        let pts = cap(0.0);
+        for (cfg, field) in [
+            (
+                SurfaceConfig {
+                    max_view_angle_deg: f64::INFINITY,
+                    ..Default::default()
+                },
+                "surface.max_view_angle_deg",
+            ),
+            (
+                SurfaceConfig {
+                    max_view_angle_deg: f64::NAN,
+                    ..Default::default()
+                },
+                "surface.max_view_angle_deg",
+            ),
+            (
+                SurfaceConfig {
+                    max_edge_m: f64::NAN,
+                    ..Default::default()
+                },
+                "surface.max_edge_m",
+            ),
+            (
+                SurfaceConfig {
+                    edge_factor: f64::INFINITY,
+                    ..Default::default()
+                },
+                "surface.edge_factor",
+            ),
+            (
+                SurfaceConfig {
+                    smoothing_neighbours: usize::MAX,
+                    ..Default::default()
+                },
+                "surface.smoothing_neighbours",
+            ),
+        ] {
+            crate::perception::assert_bad_input(triangulate_view(&pts, &[], &Point3::origin(), &cfg), field);
+        }
     }
 }

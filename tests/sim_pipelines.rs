@@ -426,6 +426,18 @@ fn endless_runs_and_clashing_outputs_are_refused_before_writing() {
         assert!(err.contains(key) && err.lines().count() == 1, "{extra}: {err}");
         assert!(!out.exists(), "{extra} left files");
     }
+    // A point cloud for the true surface: found before the perception stages write.
+    let cloud = variant(dir.path(), "");
+    let text = std::fs::read_to_string(&cloud)
+        .unwrap()
+        .replace("scene_mesh.ply", "scan.ply");
+    std::fs::write(&cloud, text).unwrap();
+    let out = dir.path().join("cloud_out");
+    let o = run(&["run", cloud.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("scan.ply") && err.contains("not a mesh"), "{err}");
+    assert!(!out.exists(), "a point cloud for the surface left files");
     // A trajectory a billion seconds long.
     let (out, _) = bottle_run();
     let text = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();

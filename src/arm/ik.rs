@@ -431,7 +431,10 @@ impl Arm {
     }
 
     /// Checks that the DH table is of the PUMA class this IK solves.
-    fn check_puma_structure(&self) -> Result<()> {
+    ///
+    /// # Errors
+    /// [`Error::Input`] (`ik`) saying what the class needs.
+    pub fn check_puma_structure(&self) -> Result<()> {
         let want_alpha = [FRAC_PI_2, 0.0, -FRAC_PI_2, FRAC_PI_2, -FRAC_PI_2];
         let l = &self.links;
         let ok = want_alpha

@@ -230,6 +230,7 @@ pub fn write_check_products(out: &OutDir, result: &CheckResult, reference: &Path
 /// stage fails — no plane, no cluster fitting the reference, ICP not converged (exit 1).
 pub fn run(args: &CheckArgs, _ctx: &Ctx) -> Result<Report> {
     let cfg: PerceptionConfig = crate::config::load(args.config.as_deref())?;
+    cfg.validate()?;
     let init = init_mode(&args.init)?;
     let truth = match &args.ground_truth {
         Some(p) => Some(read_pose_file(p, "t_scan_reference")?),

@@ -138,6 +138,7 @@ fn seabed_surface(points: &[Point3<f64>], inliers: &[usize], cfg: &PerceptionCon
 /// or is wider than the scanned surface (exit 1).
 pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
     let mut cfg: PlanCommandConfig = crate::config::load(args.config.as_deref())?;
+    cfg.perception.validate()?;
     // A polyline file named in the configuration is relative to it (as in `uvms sim` and
     // `uvms run`); one given with `--pattern` is relative to the working directory.
     cfg.plan.polyline.file = cfg

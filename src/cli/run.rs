@@ -11,7 +11,7 @@
 
 use super::check::init_file;
 use super::plan::{PlanCommandConfig, PlanInputs, plan_stage};
-use super::sim::{resolve_paths, sim_stage};
+use super::sim::{load_sim_inputs, resolve_paths, sim_stage};
 use super::{Ctx, Report};
 use crate::config::relative_to;
 use crate::error::{Error, Result};
@@ -73,6 +73,7 @@ impl Pipeline {
         resolve_paths(&mut p.sim, file);
         // Every stage's values before the first stage runs: a bad value of a late stage must
         // not fail the run after the early stages have written their products.
+        p.perception.validate()?;
         p.plan.validate()?;
         p.sim.validate()?;
         Ok(p)
@@ -98,10 +99,11 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     inputs.extend(p.sim.surface.as_deref());
     inputs.extend(p.sim.model.as_deref());
     inputs.extend(p.plan.polyline.file.as_deref());
-    // A missing input of a late stage is found before the first stage writes anything.
+    // A missing or bad input of a late stage is found before the first stage writes anything.
     if let Some(missing) = inputs.iter().find(|f| !f.exists()) {
         return Err(Error::input(missing.display(), "no such file"));
     }
+    let sim_inputs = load_sim_inputs(&p.sim, &p.plan.frames)?;
     let mut products = super::plan::products();
     products.extend(super::sim::PRODUCTS);
     let out = OutDir::create(&out_dir, &inputs, &products)?;
@@ -117,7 +119,7 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     stages.inc(1);
     text += &planned.text;
     let sim_started = Instant::now();
-    let (sim, sim_text) = sim_stage(&planned.trajectory, &p.sim, &p.plan.frames, &out, ctx)?;
+    let (sim, sim_text) = sim_stage(&planned.trajectory, &sim_inputs, &p.sim, &out, ctx)?;
     let sim_s = sim_started.elapsed().as_secs_f64();
     stages.finish_and_clear();
     text += &sim_text;

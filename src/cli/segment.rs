@@ -204,6 +204,7 @@ pub fn segmentation_text(seg: &Segmentation, text: &mut String) {
 /// cluster is found (exit 1).
 pub fn run(args: &SegmentArgs, _ctx: &Ctx) -> Result<Report> {
     let cfg: PerceptionConfig = crate::config::load(args.config.as_deref())?;
+    cfg.validate()?;
     let mut inputs: Vec<&Path> = vec![&args.scan];
     if let Some(r) = &args.reference {
         inputs.push(r);

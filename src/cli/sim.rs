@@ -8,10 +8,13 @@
 //! as SVG and PNG), `summary.json` and `config.toml`.
 
 use super::{Ctx, Report};
+use crate::arm::Arm;
 use crate::config::relative_to;
 use crate::error::{Error, Result};
 use crate::frames::ScanFrames;
 use crate::io::ply::read_mesh;
+use crate::mesh::TriangleMesh;
+use crate::model::UvmsModel;
 use crate::output::OutDir;
 use crate::plot::{to_png, to_svg};
 use crate::sim::record::{figures, write_csv};
@@ -131,19 +134,20 @@ pub const PRODUCTS: [&str; 9] = [
     "joints.png",
 ];
 
-/// Loads the surface and the model, simulates, writes the products into `out`; the summary
-/// (as JSON) and the readable account.
+/// What the simulation reads besides the trajectory: the true surface (world frame) and the
+/// plant's model.
+#[derive(Debug, Clone)]
+pub struct SimInputs {
+    mesh: TriangleMesh,
+    model: UvmsModel,
+}
+
+/// Checks the configuration and reads the simulation's files, before any stage writes: the
+/// surface a mesh, the model's arm one the analytic IK solves.
 ///
 /// # Errors
-/// [`Error::Input`] for bad files or configuration; [`Error::Failed`] when the hover point or
-/// the simulation fails.
-pub fn sim_stage(
-    trajectory: &Trajectory,
-    cfg: &SimConfig,
-    frames: &ScanFrames,
-    out: &OutDir,
-    ctx: &Ctx,
-) -> Result<(serde_json::Value, String)> {
+/// [`Error::Input`] for bad files or configuration.
+pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs> {
     cfg.validate()?;
     frames.validate()?;
     let surface_file = cfg.surface.as_deref().ok_or_else(|| {
@@ -158,8 +162,31 @@ pub fn sim_stage(
         SurfaceFrame::World => mesh,
     };
     let model = crate::model::load(cfg.model.as_deref())?;
+    let origin = cfg
+        .model
+        .as_deref()
+        .map_or_else(|| "default model".to_string(), |p| p.display().to_string());
+    Arm::new(&model.arm, &model.environment)?
+        .check_puma_structure()
+        .map_err(|e| Error::input(origin, e))?;
+    Ok(SimInputs { mesh, model })
+}
+
+/// Simulates on `inputs` (see [`load_sim_inputs`]), writes the products into `out`; the
+/// summary (as JSON) and the readable account.
+///
+/// # Errors
+/// [`Error::Input`] for a bad trajectory or configuration; [`Error::Failed`] when the hover
+/// point or the simulation fails.
+pub fn sim_stage(
+    trajectory: &Trajectory,
+    inputs: &SimInputs,
+    cfg: &SimConfig,
+    out: &OutDir,
+    ctx: &Ctx,
+) -> Result<(serde_json::Value, String)> {
     let bar = ctx.progress(1000, "sim");
-    let result = simulate(trajectory, &mesh, &model, cfg, &mut |f| {
+    let result = simulate(trajectory, &inputs.mesh, &inputs.model, cfg, &mut |f| {
         bar.set_position((f * 1000.0) as u64)
     });
     bar.finish_and_clear();
@@ -190,12 +217,13 @@ pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
         cfg.sim.surface = Some(relative_to(None, s));
     }
     let trajectory = Trajectory::read_csv(&args.trajectory)?;
+    let sim_inputs = load_sim_inputs(&cfg.sim, &cfg.frames)?;
     let mut inputs: Vec<&Path> = vec![&args.trajectory];
     inputs.extend(cfg.sim.surface.as_deref());
     inputs.extend(cfg.sim.model.as_deref());
     inputs.extend(args.config.as_deref());
     let out = OutDir::create(&args.out, &inputs, &PRODUCTS)?;
-    let (summary, text) = sim_stage(&trajectory, &cfg.sim, &cfg.frames, &out, ctx)?;
+    let (summary, text) = sim_stage(&trajectory, &sim_inputs, &cfg.sim, &out, ctx)?;
     out.write_toml("config.toml", &cfg)?;
     Ok(Report {
         summary,

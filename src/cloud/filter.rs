@@ -52,7 +52,7 @@ pub struct VoxelResult {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct OutlierConfig {
-    /// Neighbours per point, the point itself excluded (≥ 1).
+    /// Neighbours per point, the point itself excluded (1 to [`MAX_OUTLIER_NEIGHBOURS`]).
     pub neighbours: usize,
     /// Points whose mean neighbour distance exceeds mean + `std_ratio`·σ are removed (≥ 0).
     pub std_ratio: f64,
@@ -64,6 +64,28 @@ impl Default for OutlierConfig {
             neighbours: 20,
             std_ratio: 2.0,
         }
+    }
+}
+
+/// Most neighbours of the statistical outlier removal: 50 times the default, 10 times the
+/// usual values (PCL's and Open3D's examples use 20 to 100); the removal costs a k-NN query per
+/// point.
+pub const MAX_OUTLIER_NEIGHBOURS: usize = 1000;
+
+impl OutlierConfig {
+    /// Checks `neighbours` (1 to [`MAX_OUTLIER_NEIGHBOURS`]) and `std_ratio` (finite, ≥ 0);
+    /// `prefix` names the table in errors (`clean.outliers`).
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the field.
+    pub fn validate(&self, prefix: &str) -> Result<()> {
+        crate::config::count_between(
+            format!("{prefix}.neighbours"),
+            self.neighbours,
+            1,
+            MAX_OUTLIER_NEIGHBOURS,
+        )?;
+        crate::config::non_negative(&format!("{prefix}.std_ratio"), self.std_ratio)
     }
 }
 
@@ -289,21 +311,13 @@ pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<Voxe
 /// points every other point is a neighbour.
 ///
 /// # Errors
-/// [`Error::Input`] if `neighbours` is 0 or `std_ratio` is negative or not finite, or if a point
-/// is not finite.
+/// [`Error::Input`] if `neighbours` is not between 1 and [`MAX_OUTLIER_NEIGHBOURS`] or
+/// `std_ratio` is negative or not finite, or if a point is not finite.
 ///
 /// # Performance
 /// One exact k-NN query per point on a uniform grid ([`map_knn`]), in parallel (rayon).
 pub fn remove_statistical_outliers(cloud: &PointCloud, config: &OutlierConfig) -> Result<OutlierResult> {
-    if config.neighbours == 0 {
-        return Err(Error::input("neighbours", "must be at least 1"));
-    }
-    if !(config.std_ratio.is_finite() && config.std_ratio >= 0.0) {
-        return Err(Error::input(
-            "std_ratio",
-            format!("must be a finite number ≥ 0, got {}", config.std_ratio),
-        ));
-    }
+    config.validate("outliers")?;
     let n = cloud.len();
     if n < 2 {
         return Ok(OutlierResult {
@@ -587,5 +601,21 @@ mod tests {
         assert_eq!(r.max_m, 1.5);
         assert_eq!(r.min_m, 0.0);
         assert!(crate::config::from_toml_str::<OutlierConfig>("k = 3\n", "sor.toml").is_err());
+    }
+
+    #[test]
+    fn outlier_neighbours_are_bounded() {
+        let cloud = PointCloud::from_points((0..50).map(|i| Point3::new(i as f64, 0.0, 0.0)).collect());
+        for (neighbours, std_ratio, field) in [
+            (usize::MAX, 2.0, "outliers.neighbours"),
+            (0, 2.0, "outliers.neighbours"),
+            (20, f64::NAN, "outliers.std_ratio"),
+        ] {
+            let cfg = OutlierConfig {
+                neighbours,
+                std_ratio,
+            };
+            crate::perception::assert_bad_input(remove_statistical_outliers(&cloud, &cfg), field);
+        }
     }
 }

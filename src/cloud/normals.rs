@@ -16,7 +16,8 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct NormalConfig {
-    /// Neighbours used for each point's local plane (including the point itself).
+    /// Neighbours used for each point's local plane, the point itself included (3 to
+    /// [`MAX_NORMAL_NEIGHBOURS`]).
     pub neighbours: usize,
     /// Neighbours farther than this are left out, metres; 0 means no cap.
     pub radius_m: f64,
@@ -31,19 +32,37 @@ impl Default for NormalConfig {
     }
 }
 
+/// Most neighbours of a point's local plane: 50 times the default, 10 times the usual values
+/// (10 to 100); the estimate costs a k-NN query and a covariance of `k` points per point.
+pub const MAX_NORMAL_NEIGHBOURS: usize = 1000;
+
+impl NormalConfig {
+    /// Checks `neighbours` (3 — a plane — to [`MAX_NORMAL_NEIGHBOURS`]) and `radius_m` (finite,
+    /// ≥ 0).
+    ///
+    /// # Errors
+    /// [`crate::error::Error::Input`] naming the field (`normals.…`).
+    pub fn validate(&self) -> Result<()> {
+        crate::config::count_between("normals.neighbours", self.neighbours, 3, MAX_NORMAL_NEIGHBOURS)?;
+        crate::config::non_negative("normals.radius_m", self.radius_m)
+    }
+}
+
 /// The unit normal of each point of `points`, oriented so that it points towards `viewpoint`. A
 /// point with fewer than three usable neighbours (itself included) gets the unit direction
 /// towards the viewpoint. The neighbourhoods come from the grid all-kNN ([`map_knn_within`]),
 /// several times cheaper than a kd-tree query per point.
 ///
 /// # Errors
-/// [`crate::error::Error::Input`] if a point is not finite.
+/// [`crate::error::Error::Input`] for a bad configuration ([`NormalConfig::validate`]) or if a
+/// point is not finite.
 pub fn estimate_normals(
     points: &[Point3<f64>],
     config: &NormalConfig,
     viewpoint: &Point3<f64>,
 ) -> Result<Vec<Vector3<f64>>> {
-    let k = config.neighbours.max(3);
+    config.validate()?;
+    let k = config.neighbours;
     let radius = if config.radius_m > 0.0 {
         config.radius_m
     } else {
@@ -104,5 +123,42 @@ mod tests {
         let pts = vec![Point3::new(0.0, 0.0, 2.0), Point3::new(1.0, 0.0, 2.0)];
         let n = estimate_normals(&pts, &NormalConfig::default(), &Point3::origin()).unwrap();
         assert!((n[0] - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn bad_radius_or_neighbour_count_is_an_input_error() {
+        let pts = vec![Point3::new(0.0, 0.0, 2.0), Point3::new(1.0, 0.0, 2.0)];
+        for (cfg, field) in [
+            (
+                NormalConfig {
+                    radius_m: f64::NAN,
+                    ..Default::default()
+                },
+                "normals.radius_m",
+            ),
+            (
+                NormalConfig {
+                    radius_m: -1.0,
+                    ..Default::default()
+                },
+                "normals.radius_m",
+            ),
+            (
+                NormalConfig {
+                    neighbours: usize::MAX,
+                    ..Default::default()
+                },
+                "normals.neighbours",
+            ),
+            (
+                NormalConfig {
+                    neighbours: 0,
+                    ..Default::default()
+                },
+                "normals.neighbours",
+            ),
+        ] {
+            crate::perception::assert_bad_input(estimate_normals(&pts, &cfg, &Point3::origin()), field);
+        }
     }
 }

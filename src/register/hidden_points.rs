@@ -18,7 +18,8 @@ use serde::{Deserialize, Serialize};
 pub struct HiddenPointConfig {
     /// Cull the reference points the camera cannot see before ICP.
     pub enabled: bool,
-    /// Radius of the flipping sphere over the farthest point's distance.
+    /// Radius of the flipping sphere over the farthest point's distance (above 1, at most
+    /// [`MAX_RADIUS_FACTOR`]).
     pub radius_factor: f64,
 }
 
@@ -28,6 +29,29 @@ impl Default for HiddenPointConfig {
             enabled: true,
             radius_factor: 100.0,
         }
+    }
+}
+
+/// Largest `radius_factor`: far past the point where every point is on the hull (the flip
+/// then keeps the back of the model too); beyond it the flipped points lose their precision.
+pub const MAX_RADIUS_FACTOR: f64 = 1e6;
+
+impl HiddenPointConfig {
+    /// Checks `radius_factor`: above 1 (the flipping sphere must enclose the points) and at most
+    /// [`MAX_RADIUS_FACTOR`].
+    ///
+    /// # Errors
+    /// [`crate::error::Error::Input`] naming `register.hidden_points.radius_factor`.
+    pub fn validate(&self) -> crate::error::Result<()> {
+        crate::config::require(
+            self.radius_factor > 1.0 && self.radius_factor <= MAX_RADIUS_FACTOR,
+            "register.hidden_points.radius_factor",
+            format!(
+                "must be > 1 and at most {MAX_RADIUS_FACTOR} (the flipping sphere's radius over the \
+                 farthest point's distance), got {}",
+                self.radius_factor
+            ),
+        )
     }
 }
 
@@ -125,5 +149,18 @@ mod tests {
                 assert_eq!(ours, parry, "camera {k}, factor {factor}");
             }
         }
+    }
+
+    #[test]
+    fn a_factor_that_culls_nothing_or_nonsense_is_rejected() {
+        // Each of these silently kept every point (the flip needs a factor above 1).
+        for f in [f64::NAN, -1.0, 0.0, 1.0, f64::INFINITY, 1e300] {
+            let cfg = HiddenPointConfig {
+                radius_factor: f,
+                ..HiddenPointConfig::default()
+            };
+            crate::perception::assert_bad_input(cfg.validate(), "register.hidden_points.radius_factor");
+        }
+        HiddenPointConfig::default().validate().unwrap();
     }
 }

@@ -70,7 +70,7 @@ impl Kernel {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct IcpConfig {
-    /// Most iterations.
+    /// Most iterations (1 to [`MAX_ITERATIONS`]).
     pub max_iterations: usize,
     /// Correspondence gate at the start, metres; 0 takes a quarter of the reference's largest
     /// span.
@@ -121,46 +121,56 @@ impl Default for IcpConfig {
     }
 }
 
+/// Most ICP iterations: 150 times the default; ICP on the bottle converges in 10 to 40.
+pub const MAX_ITERATIONS: usize = 10_000;
+
 impl IcpConfig {
     /// Checks the values a user can get wrong.
     ///
     /// # Errors
-    /// [`Error::Input`] naming the field (under `prefix`, e.g. `icp`).
+    /// [`Error::Input`] naming the field (under `prefix`, e.g. `register.icp`).
     pub fn validate(&self, prefix: &str) -> Result<()> {
-        let bad = |f: &str, why: &str| Err(Error::input(format!("{prefix}.{f}"), why));
+        let bad = |f: &str, why: &str, v: f64| {
+            Err(Error::input(format!("{prefix}.{f}"), format!("{why}, got {v}")))
+        };
         let pos = |x: f64| x > 0.0 && x.is_finite();
-        if self.max_iterations == 0 {
-            return bad("max_iterations", "must be ≥ 1");
-        }
+        crate::config::count_between(
+            format!("{prefix}.max_iterations"),
+            self.max_iterations,
+            1,
+            MAX_ITERATIONS,
+        )?;
         if !(self.initial_gate_m >= 0.0 && self.initial_gate_m.is_finite()) {
             return bad(
                 "initial_gate_m",
-                "must be ≥ 0 (0 = a quarter of the reference's size)",
+                "must be a finite number ≥ 0 (0 = a quarter of the reference's size)",
+                self.initial_gate_m,
             );
         }
-        if !pos(self.min_gate_m) {
-            return bad("min_gate_m", "must be > 0");
-        }
-        if !pos(self.gate_sigmas) {
-            return bad("gate_sigmas", "must be > 0");
+        let positive = [
+            ("min_gate_m", self.min_gate_m),
+            ("gate_sigmas", self.gate_sigmas),
+            ("min_sigma_m", self.min_sigma_m),
+            ("motion_tolerance", self.motion_tolerance),
+            ("rotation_tolerance_rad", self.rotation_tolerance_rad),
+            ("translation_tolerance_m", self.translation_tolerance_m),
+        ];
+        for (f, v) in positive {
+            if !pos(v) {
+                return bad(f, "must be a finite number > 0", v);
+            }
         }
         if !(self.gate_shrink > 0.0 && self.gate_shrink <= 1.0) {
-            return bad("gate_shrink", "must be in (0, 1]");
-        }
-        if !pos(self.min_sigma_m) {
-            return bad("min_sigma_m", "must be > 0");
-        }
-        if !pos(self.motion_tolerance) {
-            return bad("motion_tolerance", "must be > 0");
-        }
-        if !pos(self.rotation_tolerance_rad) || !pos(self.translation_tolerance_m) {
-            return bad("rotation_tolerance_rad", "tolerances must be > 0");
+            return bad("gate_shrink", "must be in (0, 1]", self.gate_shrink);
         }
         if !(self.degenerate_ratio >= 0.0 && self.degenerate_ratio < 1.0) {
-            return bad("degenerate_ratio", "must be in [0, 1)");
+            return bad("degenerate_ratio", "must be in [0, 1)", self.degenerate_ratio);
         }
         if self.min_correspondences < 6 {
-            return bad("min_correspondences", "must be ≥ 6");
+            return Err(Error::input(
+                format!("{prefix}.min_correspondences"),
+                format!("must be ≥ 6 (six unknowns), got {}", self.min_correspondences),
+            ));
         }
         Ok(())
     }
@@ -536,5 +546,33 @@ mod tests {
         }
         assert_eq!(Kernel::Tukey.weight(5.0, 1.0), 0.0);
         assert_eq!(Kernel::None.weight(100.0, 1.0), 1.0);
+    }
+
+    #[test]
+    fn validate_names_the_field_at_fault() {
+        use crate::perception::assert_bad_input;
+        // It used to name rotation_tolerance_rad for a bad translation tolerance.
+        let cfg = IcpConfig {
+            translation_tolerance_m: 0.0,
+            ..IcpConfig::default()
+        };
+        assert_bad_input(
+            cfg.validate("register.icp"),
+            "register.icp.translation_tolerance_m",
+        );
+        let cfg = IcpConfig {
+            rotation_tolerance_rad: f64::NAN,
+            ..IcpConfig::default()
+        };
+        assert_bad_input(
+            cfg.validate("register.icp"),
+            "register.icp.rotation_tolerance_rad",
+        );
+        let cfg = IcpConfig {
+            max_iterations: usize::MAX,
+            ..IcpConfig::default()
+        };
+        assert_bad_input(cfg.validate("register.icp"), "register.icp.max_iterations");
+        IcpConfig::default().validate("register.icp").unwrap();
     }
 }

@@ -31,7 +31,7 @@ use crate::cloud::pca::PrincipalAxes;
 use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::register::ReferenceModel;
-use crate::register::icp::{IcpConfig, Surfel, icp_point_to_plane};
+use crate::register::icp::{IcpConfig, MAX_ITERATIONS, Surfel, icp_point_to_plane};
 use crate::spatial::KdIndex;
 use nalgebra::{Matrix3, Point3, Rotation3, Translation3, Unit, UnitQuaternion, Vector3};
 use rayon::prelude::*;
@@ -41,7 +41,8 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct InitConfig {
-    /// Turns about the scan's major axis tried per axis pairing (8: every 45°).
+    /// Turns about the scan's major axis tried per axis pairing (8: every 45°; 1 to
+    /// [`MAX_ROTATION_STEPS`]).
     pub rotation_steps: usize,
     /// Scan points (evenly strided) for the coarse ICP every candidate gets.
     pub coarse_points: usize,
@@ -56,20 +57,21 @@ pub struct InitConfig {
     /// many point visits as the model has points within that distance; a mean over
     /// `offset_points` pairs needs the model only a few times denser than those scan points.
     pub offset_model_points: usize,
-    /// Iterations of the coarse ICP.
+    /// Iterations of the coarse ICP (1 to [`MAX_ITERATIONS`]).
     pub coarse_iterations: usize,
-    /// Best candidates refined further.
+    /// Best candidates refined further (1 to [`MAX_REFINE`]).
     pub refine: usize,
     /// Only candidates whose coarse score is within this factor of the best one's (plus 0.1 τ,
     /// the floor of a score at the noise level) are refined: the others cannot win.
     pub refine_within: f64,
     /// Scan points (evenly strided) for the refinement.
     pub sample_points: usize,
-    /// Iterations of the refinement.
+    /// Iterations of the refinement (1 to [`MAX_ITERATIONS`]).
     pub icp_iterations: usize,
-    /// Gate of the short ICP as a fraction of the model's largest span.
+    /// Gate of the short ICP as a fraction of the model's largest span, in (0, 1] and at least
+    /// 0.1 × `score_fraction` (the noise floor of a score, the smallest gate a refinement uses).
     pub gate_fraction: f64,
-    /// Truncation `τ` of the score as a fraction of the model's largest span.
+    /// Truncation `τ` of the score as a fraction of the model's largest span, in (0, 1].
     pub score_fraction: f64,
     /// A model axis is laid along the scan's major axis only if the model's span along it is at
     /// least this fraction of the scan's major span (below 1: noise, fouling, a model that is not
@@ -94,6 +96,72 @@ impl Default for InitConfig {
             score_fraction: 0.05,
             span_tolerance: 0.8,
         }
+    }
+}
+
+/// Most turns about the scan's major axis: 1° steps, 45 times the default (`6 × 360`
+/// candidates, each with its own coarse ICP).
+pub const MAX_ROTATION_STEPS: usize = 360;
+
+/// Most candidates refined: 25 times the default (the distinct candidates in contention are
+/// rarely more than the few orientations a symmetric object allows).
+pub const MAX_REFINE: usize = 100;
+
+/// The floor of a score at the noise level, as a fraction of its truncation `τ`: the smallest
+/// gate a refinement starts with.
+const NOISE_FLOOR: f64 = 0.1;
+
+impl InitConfig {
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the field (`register.init.…`).
+    pub fn validate(&self) -> Result<()> {
+        use crate::config::{count_between, require};
+        let key = |f: &str| format!("register.init.{f}");
+        count_between(key("rotation_steps"), self.rotation_steps, 1, MAX_ROTATION_STEPS)?;
+        count_between(key("refine"), self.refine, 1, MAX_REFINE)?;
+        count_between(
+            key("coarse_iterations"),
+            self.coarse_iterations,
+            1,
+            MAX_ITERATIONS,
+        )?;
+        count_between(key("icp_iterations"), self.icp_iterations, 1, MAX_ITERATIONS)?;
+        require(
+            self.sample_points >= 10,
+            key("sample_points"),
+            format!("must be ≥ 10, got {}", self.sample_points),
+        )?;
+        require(
+            self.refine_within >= 1.0 && self.refine_within.is_finite(),
+            key("refine_within"),
+            format!("must be a finite number ≥ 1, got {}", self.refine_within),
+        )?;
+        for (f, v) in [
+            ("gate_fraction", self.gate_fraction),
+            ("score_fraction", self.score_fraction),
+        ] {
+            require(
+                v > 0.0 && v <= 1.0,
+                key(f),
+                format!("must be in (0, 1] (a fraction of the model's largest span), got {v}"),
+            )?;
+        }
+        require(
+            self.gate_fraction >= NOISE_FLOOR * self.score_fraction,
+            key("gate_fraction"),
+            format!(
+                "must be at least {NOISE_FLOOR} × register.init.score_fraction ({}): the gate cannot \
+                 be narrower than the score's noise floor, got {}",
+                self.score_fraction, self.gate_fraction
+            ),
+        )?;
+        require(
+            self.span_tolerance >= 0.0 && self.span_tolerance.is_finite(),
+            key("span_tolerance"),
+            format!("must be a finite number ≥ 0, got {}", self.span_tolerance),
+        )
     }
 }
 
@@ -249,21 +317,7 @@ pub fn initial_guess(
     scan_shape: &PrincipalAxes,
     cfg: &InitConfig,
 ) -> Result<InitOutcome> {
-    if cfg.rotation_steps == 0 || cfg.refine == 0 || cfg.sample_points < 10 {
-        return Err(Error::input(
-            "init",
-            "rotation_steps and refine must be ≥ 1 and sample_points ≥ 10",
-        ));
-    }
-    if !(cfg.gate_fraction > 0.0 && cfg.score_fraction > 0.0 && cfg.refine_within >= 1.0) {
-        return Err(Error::input(
-            "init",
-            "gate_fraction and score_fraction must be > 0 and refine_within ≥ 1",
-        ));
-    }
-    if !(cfg.span_tolerance.is_finite() && cfg.span_tolerance >= 0.0) {
-        return Err(Error::input("init.span_tolerance", "must be a finite number ≥ 0"));
-    }
+    cfg.validate()?;
     if scan.len() < 10 {
         return Err(Error::failed(
             "init",
@@ -382,7 +436,7 @@ pub fn initial_guess(
     // already fits to within the noise floor) stops, as it will not be refined; and so does a run
     // that has reached the noise floor, 0.1 τ: further coarse steps could only reorder it among
     // scores the noise cannot tell apart, and its refinement starts with its gate at that floor.
-    let floor = 0.1 * tau;
+    let floor = NOISE_FLOOR * tau;
     let settle = |runs: &mut [CoarseRun], now: Vec<Option<(Pose, f64)>>| {
         let best = runs
             .iter()
@@ -471,7 +525,8 @@ pub fn initial_guess(
         .par_iter()
         .map(|(pose, s)| {
             // The coarse ICP left the candidate within a few of its truncated RMS distances.
-            let near = (4.0 * s).clamp(0.1 * tau, gate);
+            // (Not `clamp`: it panics on a NaN or when the floor exceeds the gate.)
+            let near = (4.0 * s).max(floor).min(gate);
             refine((full, model.spacing_m), &sample, (pose, near), cfg.icp_iterations)
         })
         .collect();
@@ -517,5 +572,59 @@ mod tests {
             let r = s * Matrix3::from_diagonal(&Vector3::from(flip)) * m.transpose();
             assert!(c.iter().any(|x| (x.matrix() - r).norm() < 1e-9), "{flip:?}");
         }
+    }
+
+    #[test]
+    fn fractions_that_panicked_the_refinement_are_input_errors() {
+        use crate::perception::assert_bad_input;
+        // Each made the refinement's gate clamp panic ("min > max, or either was NaN").
+        for (gate, score, field) in [
+            (0.004, 0.05, "register.init.gate_fraction"),
+            (0.02, 0.5, "register.init.gate_fraction"),
+            (0.2, f64::INFINITY, "register.init.score_fraction"),
+            (0.2, 1e300, "register.init.score_fraction"),
+            (f64::NAN, 0.05, "register.init.gate_fraction"),
+        ] {
+            let cfg = InitConfig {
+                gate_fraction: gate,
+                score_fraction: score,
+                ..InitConfig::default()
+            };
+            assert_bad_input(cfg.validate(), field);
+        }
+        // Counts that exhausted memory (a candidate per turn, a refinement slot per `refine`).
+        let cfg = InitConfig {
+            rotation_steps: usize::MAX,
+            ..InitConfig::default()
+        };
+        assert_bad_input(cfg.validate(), "register.init.rotation_steps");
+        let cfg = InitConfig {
+            refine: 1_000_000_000,
+            ..InitConfig::default()
+        };
+        assert_bad_input(cfg.validate(), "register.init.refine");
+        let cfg = InitConfig {
+            refine_within: f64::INFINITY,
+            ..InitConfig::default()
+        };
+        assert_bad_input(cfg.validate(), "register.init.refine_within");
+        InitConfig::default().validate().unwrap();
+    }
+
+    #[test]
+    fn initial_guess_returns_the_error_instead_of_panicking() {
+        let (mp, mn) = crate::register::tests::bottle(3000, 1);
+        let model = ReferenceModel::build(mp, mn, None, "model").unwrap();
+        let truth = Pose::translation(0.0, 0.0, 1.0);
+        let scan = crate::register::tests::scan_of(&truth, 0.0005, 2);
+        let shape = crate::cloud::pca::principal_axes(&scan, 0.01).unwrap();
+        let cfg = InitConfig {
+            gate_fraction: 0.004,
+            ..InitConfig::default()
+        };
+        crate::perception::assert_bad_input(
+            initial_guess(&model, &scan, &shape, &cfg),
+            "register.init.gate_fraction",
+        );
     }
 }

@@ -44,9 +44,11 @@ impl ReferenceModel {
     /// From a triangle mesh: `samples` points spread uniformly over its surface (seeded).
     ///
     /// # Errors
-    /// [`Error::Input`] (naming `what`) if the mesh has no area.
+    /// [`Error::Input`] naming `register.mesh_samples` when `samples` is out of its bounds
+    /// ([`MIN_MESH_SAMPLES`], [`MAX_MESH_SAMPLES`]), or naming `what` if the mesh has no area.
     pub fn from_mesh(mesh: TriangleMesh, samples: usize, seed: u64, what: &str) -> Result<Self> {
-        let (points, normals) = mesh.sample_surface(samples.max(100), seed);
+        check_mesh_samples(samples)?;
+        let (points, normals) = mesh.sample_surface(samples, seed);
         if points.is_empty() {
             return Err(Error::input(what, "the reference mesh has no surface area"));
         }
@@ -133,7 +135,7 @@ pub enum InitMode {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RegisterConfig {
-    /// Points sampled on a reference mesh.
+    /// Points sampled on a reference mesh ([`MIN_MESH_SAMPLES`] to [`MAX_MESH_SAMPLES`]).
     pub mesh_samples: usize,
     /// Seed of the mesh sampling.
     pub seed: u64,
@@ -148,12 +150,13 @@ pub struct RegisterConfig {
     pub symmetric: bool,
     /// At most this many ICP runs, each after culling the hidden points again from the last
     /// estimate; a run is skipped when the last moved the camera (in the model's frame) too
-    /// little to move the silhouette by half the model's point spacing.
+    /// little to move the silhouette by half the model's point spacing (1 to
+    /// [`MAX_VISIBILITY_ROUNDS`]).
     pub visibility_rounds: usize,
     /// Distance for the reported fitness and inlier RMSE, metres; 0 uses ICP's last gate.
     pub evaluation_distance_m: f64,
     /// Fail when the scan fitness (the fraction of the scanned object the aligned model explains)
-    /// is below this.
+    /// is below this (a fraction in [0, 1]).
     pub min_fitness: f64,
 }
 
@@ -170,6 +173,54 @@ impl Default for RegisterConfig {
             evaluation_distance_m: 0.0,
             min_fitness: 0.3,
         }
+    }
+}
+
+/// Fewest points sampled on a reference mesh.
+pub const MIN_MESH_SAMPLES: usize = 100;
+
+/// Most points sampled on a reference mesh: 100 times the default, a point every 1.3 mm on
+/// the seed's 0.35 m bottle (2.3 m²). Every visibility round culls them (a convex hull) and
+/// ICP pairs the scan with them.
+pub const MAX_MESH_SAMPLES: usize = 2_000_000;
+
+/// Most ICP runs with the hidden points culled again: 50 times the default (the runs stop
+/// once the silhouette no longer moves, usually after two).
+pub const MAX_VISIBILITY_ROUNDS: usize = 100;
+
+/// `Ok` if `samples` is within [`MIN_MESH_SAMPLES`] and [`MAX_MESH_SAMPLES`].
+fn check_mesh_samples(samples: usize) -> Result<()> {
+    crate::config::count_between(
+        "register.mesh_samples",
+        samples,
+        MIN_MESH_SAMPLES,
+        MAX_MESH_SAMPLES,
+    )
+}
+
+impl RegisterConfig {
+    /// Checks every value, the global search's, the hidden-point removal's and ICP's included.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the field (`register.…`).
+    pub fn validate(&self) -> Result<()> {
+        use crate::config::{count_between, require};
+        check_mesh_samples(self.mesh_samples)?;
+        self.init.validate()?;
+        self.hidden_points.validate()?;
+        self.icp.validate("register.icp")?;
+        count_between(
+            "register.visibility_rounds",
+            self.visibility_rounds,
+            1,
+            MAX_VISIBILITY_ROUNDS,
+        )?;
+        crate::config::non_negative("register.evaluation_distance_m", self.evaluation_distance_m)?;
+        require(
+            (0.0..=1.0).contains(&self.min_fitness),
+            "register.min_fitness",
+            format!("must be a fraction in [0, 1], got {}", self.min_fitness),
+        )
     }
 }
 
@@ -220,10 +271,7 @@ pub fn register(
     init: &InitMode,
     cfg: &RegisterConfig,
 ) -> Result<Registration> {
-    cfg.icp.validate("register.icp")?;
-    if cfg.visibility_rounds == 0 {
-        return Err(Error::input("register.visibility_rounds", "must be ≥ 1"));
-    }
+    cfg.validate()?;
     // The initial pose and the model's points visible from it, alongside the scan's normals.
     let start = || -> Result<_> {
         let mut timings = crate::perception::Timings::default();
@@ -483,5 +531,57 @@ pub(crate) mod tests {
                 assert_eq!(e.t_scan_reference, r.t_scan_reference);
             }
         }
+    }
+
+    #[test]
+    fn bad_registration_values_are_input_errors() {
+        use crate::perception::assert_bad_input;
+        let with = |f: &dyn Fn(&mut RegisterConfig)| {
+            let mut c = RegisterConfig::default();
+            f(&mut c);
+            c.validate()
+        };
+        // NaN disabled the fitness guard (`scan_fitness < NaN` is false).
+        assert_bad_input(with(&|c| c.min_fitness = f64::NAN), "register.min_fitness");
+        assert_bad_input(with(&|c| c.min_fitness = 1.5), "register.min_fitness");
+        assert_bad_input(
+            with(&|c| c.evaluation_distance_m = f64::NAN),
+            "register.evaluation_distance_m",
+        );
+        assert_bad_input(with(&|c| c.mesh_samples = usize::MAX), "register.mesh_samples");
+        assert_bad_input(
+            with(&|c| c.visibility_rounds = usize::MAX),
+            "register.visibility_rounds",
+        );
+        assert_bad_input(
+            with(&|c| c.hidden_points.radius_factor = 0.0),
+            "register.hidden_points.radius_factor",
+        );
+        assert_bad_input(
+            with(&|c| c.init.score_fraction = 1e300),
+            "register.init.score_fraction",
+        );
+        RegisterConfig::default().validate().unwrap();
+    }
+
+    #[test]
+    fn a_huge_sample_count_is_an_input_error_not_a_capacity_overflow() {
+        let mesh = TriangleMesh {
+            vertices: vec![
+                Point3::origin(),
+                Point3::new(0.1, 0.0, 0.0),
+                Point3::new(0.0, 0.1, 0.0),
+                Point3::new(0.0, 0.0, 0.1),
+            ],
+            triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        };
+        for n in [usize::MAX, 1_000_000_000, 0] {
+            crate::perception::assert_bad_input(
+                ReferenceModel::from_mesh(mesh.clone(), n, 1, "model.ply").map(|_| ()),
+                "register.mesh_samples",
+            );
+        }
+        let m = ReferenceModel::from_mesh(mesh, 1000, 1, "model.ply").unwrap();
+        assert_eq!(m.points.len(), 1000);
     }
 }

@@ -27,7 +27,8 @@ pub struct ClusterConfig {
     pub min_points: usize,
     /// Most points of a cluster.
     pub max_points: usize,
-    /// Quantile used for cluster spans along the principal axes (spans run from `q` to `1 − q`).
+    /// Quantile used for cluster spans along the principal axes (spans run from `q` to `1 − q`;
+    /// `q` in [0, 0.5)).
     pub span_quantile: f64,
 }
 
@@ -40,6 +41,42 @@ impl Default for ClusterConfig {
             max_points: 5_000_000,
             span_quantile: 0.01,
         }
+    }
+}
+
+impl ClusterConfig {
+    /// Checks every value. `min_points` and `max_points` only filter the clusters found, so
+    /// they need no upper bound.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the field (`cluster.…`).
+    pub fn validate(&self) -> Result<()> {
+        if !(self.tolerance_m > 0.0 && self.tolerance_m.is_finite()) {
+            return Err(Error::input(
+                "cluster.tolerance_m",
+                format!("must be a finite number > 0, got {}", self.tolerance_m),
+            ));
+        }
+        if self.min_points == 0 || self.min_points > self.max_points {
+            return Err(Error::input(
+                "cluster.min_points",
+                format!(
+                    "must be ≥ 1 and ≤ cluster.max_points ({}), got {}",
+                    self.max_points, self.min_points
+                ),
+            ));
+        }
+        // Spans run from the q to the 1 − q quantile: q = 0.5 leaves nothing between them.
+        if !(self.span_quantile >= 0.0 && self.span_quantile < 0.5) {
+            return Err(Error::input(
+                "cluster.span_quantile",
+                format!(
+                    "must be a quantile in [0, 0.5) (spans run from q to 1 − q), got {}",
+                    self.span_quantile
+                ),
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -66,18 +103,9 @@ pub struct Clustering {
 /// Euclidean clusters of `points`.
 ///
 /// # Errors
-/// [`Error::Input`] naming `cluster.tolerance_m` or `cluster.min_points` when they are not
-/// usable.
+/// [`Error::Input`] naming the field of a bad configuration ([`ClusterConfig::validate`]).
 pub fn euclidean_clusters(points: &[Point3<f64>], cfg: &ClusterConfig) -> Result<Clustering> {
-    if !(cfg.tolerance_m > 0.0 && cfg.tolerance_m.is_finite()) {
-        return Err(Error::input("cluster.tolerance_m", "must be > 0"));
-    }
-    if cfg.min_points == 0 || cfg.min_points > cfg.max_points {
-        return Err(Error::input(
-            "cluster.min_points",
-            "must be ≥ 1 and ≤ cluster.max_points",
-        ));
-    }
+    cfg.validate()?;
     let Some((lo, hi)) = crate::cloud::bbox(points) else {
         return Ok(Clustering {
             clusters: Vec::new(),
@@ -313,5 +341,20 @@ mod tests {
         assert_eq!(euclidean_clusters(&pts, &cfg).unwrap().clusters.len(), 1);
         cfg.tolerance_m = 0.008;
         assert_eq!(euclidean_clusters(&pts, &cfg).unwrap().clusters.len(), 200);
+    }
+
+    #[test]
+    fn span_quantile_must_be_a_quantile_below_a_half() {
+        let pts: Vec<Point3<f64>> = (0..200)
+            .map(|i| Point3::new(0.001 * i as f64, 0.0, 1.0))
+            .collect();
+        // NaN (and any value past 0.5) made every span 0: "no cluster fits", exit 1.
+        for q in [f64::NAN, f64::INFINITY, 1e300, -1.0, 0.5] {
+            let cfg = ClusterConfig {
+                span_quantile: q,
+                ..Default::default()
+            };
+            crate::perception::assert_bad_input(euclidean_clusters(&pts, &cfg), "cluster.span_quantile");
+        }
     }
 }

@@ -21,6 +21,7 @@
 //! signed distances, positive on the camera's side. Units: metres.
 
 use crate::cloud::pca::{mean_covariance_of, median, sorted_eigen};
+use crate::config::count_between;
 use crate::error::{Error, Result};
 use nalgebra::{Point3, Vector3};
 use rand::rngs::ChaCha8Rng;
@@ -106,7 +107,7 @@ pub struct SeabedConfig {
     pub min_threshold_m: f64,
     /// Upper bound of the estimated threshold, metres.
     pub max_threshold_m: f64,
-    /// Most RANSAC hypotheses.
+    /// Most RANSAC hypotheses (1 to [`MAX_RANSAC_ITERATIONS`]).
     pub max_iterations: usize,
     /// Probability that at least one all-inlier sample is drawn (sets the adaptive count).
     pub confidence: f64,
@@ -114,7 +115,7 @@ pub struct SeabedConfig {
     pub up_tolerance_deg: f64,
     /// Hypotheses are scored on a random subset of this many points (0: all points).
     pub score_points: usize,
-    /// Most least-squares refit rounds.
+    /// Most least-squares refit rounds (at most [`MAX_REFIT_ROUNDS`]).
     pub refit_rounds: usize,
     /// Fewest inliers a plane needs (below it the stage fails: "no plane").
     pub min_inliers: usize,
@@ -253,15 +254,8 @@ pub fn find_seabed(
     up: Option<&Vector3<f64>>,
     cfg: &SeabedConfig,
 ) -> Result<SeabedFit> {
-    validate(cfg)?;
-    let up = match up {
-        None => None,
-        Some(u) => Some(
-            u.try_normalize(1e-12)
-                .filter(|u| u.iter().all(|c| c.is_finite()))
-                .ok_or_else(|| Error::input("--up", "must be a non-zero finite vector"))?,
-        ),
-    };
+    cfg.validate()?;
+    let up = up.map(unit_up).transpose()?;
     if points.len() < 3 {
         return Err(Error::failed(
             "seabed",
@@ -498,30 +492,123 @@ fn inliers_of(points: &[Point3<f64>], plane: &Plane, threshold: f64) -> Vec<usiz
         .collect()
 }
 
-fn validate(cfg: &SeabedConfig) -> Result<()> {
-    let bad = |field: &str, why: &str| Err(Error::input(format!("seabed.{field}"), why));
-    if !(cfg.threshold_m >= 0.0 && cfg.threshold_m.is_finite()) {
-        return bad("threshold_m", "must be ≥ 0 (0 = estimate from the data)");
+/// Most RANSAC hypotheses: 500 times the default. The adaptive count needs about 7000 for a
+/// seabed that is a fifth of the cloud at the default confidence; each hypothesis is scored on
+/// up to `score_points` points.
+pub const MAX_RANSAC_ITERATIONS: usize = 1_000_000;
+
+/// Most least-squares refit rounds: 100 times the default (the inlier set is usually stable
+/// after two or three).
+pub const MAX_REFIT_ROUNDS: usize = 1000;
+
+impl SeabedConfig {
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the field (`seabed.…`).
+    pub fn validate(&self) -> Result<()> {
+        let bad = |field: &str, why: String| Err(Error::input(format!("seabed.{field}"), why));
+        if !(self.threshold_m >= 0.0 && self.threshold_m.is_finite()) {
+            return bad(
+                "threshold_m",
+                format!(
+                    "must be a finite number ≥ 0 (0 = estimate from the data), got {}",
+                    self.threshold_m
+                ),
+            );
+        }
+        if self.threshold_m == 0.0
+            && !(self.initial_threshold_m > 0.0 && self.initial_threshold_m.is_finite())
+        {
+            return bad(
+                "initial_threshold_m",
+                format!("must be a finite number > 0, got {}", self.initial_threshold_m),
+            );
+        }
+        if !(self.max_threshold_m > 0.0 && self.max_threshold_m.is_finite()) {
+            return bad(
+                "max_threshold_m",
+                format!("must be a finite number > 0, got {}", self.max_threshold_m),
+            );
+        }
+        if !(self.min_threshold_m > 0.0 && self.min_threshold_m <= self.max_threshold_m) {
+            return bad(
+                "min_threshold_m",
+                format!(
+                    "must be > 0 and ≤ seabed.max_threshold_m ({}), got {}",
+                    self.max_threshold_m, self.min_threshold_m
+                ),
+            );
+        }
+        if !(self.noise_sigmas > 0.0 && self.noise_sigmas.is_finite()) {
+            return bad(
+                "noise_sigmas",
+                format!("must be a finite number > 0, got {}", self.noise_sigmas),
+            );
+        }
+        if !(self.confidence > 0.0 && self.confidence < 1.0) {
+            return bad(
+                "confidence",
+                format!("must be in (0, 1), got {}", self.confidence),
+            );
+        }
+        if !(self.up_tolerance_deg > 0.0 && self.up_tolerance_deg <= 90.0) {
+            return bad(
+                "up_tolerance_deg",
+                format!("must be in (0, 90] degrees, got {}", self.up_tolerance_deg),
+            );
+        }
+        count_between(
+            "seabed.max_iterations",
+            self.max_iterations,
+            1,
+            MAX_RANSAC_ITERATIONS,
+        )?;
+        count_between("seabed.refit_rounds", self.refit_rounds, 0, MAX_REFIT_ROUNDS)?;
+        if !(self.object_min_height_m >= 0.0 && self.object_min_height_m.is_finite()) {
+            return bad(
+                "object_min_height_m",
+                format!(
+                    "must be a finite number ≥ 0 (0 = the inlier threshold), got {}",
+                    self.object_min_height_m
+                ),
+            );
+        }
+        if !(self.object_max_height_m == 0.0
+            || self.object_max_height_m.is_finite() && self.object_max_height_m > self.object_min_height_m)
+        {
+            return bad(
+                "object_max_height_m",
+                format!(
+                    "must be 0 (no limit) or a finite number > seabed.object_min_height_m ({}), got {}",
+                    self.object_min_height_m, self.object_max_height_m
+                ),
+            );
+        }
+        Ok(())
     }
-    if cfg.threshold_m == 0.0 && !(cfg.initial_threshold_m > 0.0 && cfg.initial_threshold_m.is_finite()) {
-        return bad("initial_threshold_m", "must be > 0");
+}
+
+/// `up` as a unit vector: scaled by its largest component first, so that a long vector (whose
+/// squared norm overflows) is normalised as well as a short one.
+///
+/// # Errors
+/// [`Error::Input`] naming `--up` for a zero or non-finite vector.
+fn unit_up(u: &Vector3<f64>) -> Result<Vector3<f64>> {
+    let err = || {
+        Error::input(
+            "--up",
+            format!(
+                "must be a finite non-zero vector, got ({}, {}, {})",
+                u.x, u.y, u.z
+            ),
+        )
+    };
+    let scale = u.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    if !(u.iter().all(|c| c.is_finite()) && scale > 0.0) {
+        return Err(err());
     }
-    if !(cfg.min_threshold_m > 0.0 && cfg.min_threshold_m <= cfg.max_threshold_m) {
-        return bad("min_threshold_m", "must be > 0 and ≤ max_threshold_m");
-    }
-    if !(cfg.noise_sigmas > 0.0 && cfg.noise_sigmas.is_finite()) {
-        return bad("noise_sigmas", "must be > 0");
-    }
-    if !(cfg.confidence > 0.0 && cfg.confidence < 1.0) {
-        return bad("confidence", "must be in (0, 1)");
-    }
-    if !(cfg.up_tolerance_deg > 0.0 && cfg.up_tolerance_deg <= 90.0) {
-        return bad("up_tolerance_deg", "must be in (0, 90]");
-    }
-    if cfg.max_iterations == 0 {
-        return bad("max_iterations", "must be ≥ 1");
-    }
-    Ok(())
+    (u / scale).try_normalize(0.5).ok_or_else(err)
 }
 
 #[cfg(test)]
@@ -724,5 +811,73 @@ mod tests {
         let a = find_seabed(&pts, None, &cfg).unwrap();
         let b = find_seabed(&pts, None, &cfg).unwrap();
         assert_eq!(a, b);
+    }
+
+    #[test]
+    fn nan_heights_and_unbounded_counts_are_rejected() {
+        use crate::perception::assert_bad_input;
+        let (pts, _, _) = scene(0.001, 0.0, 0.0, 11);
+        let with = |f: &dyn Fn(&mut SeabedConfig)| {
+            let mut c = SeabedConfig::default();
+            f(&mut c);
+            c
+        };
+        for (cfg, field) in [
+            (
+                with(&|c| c.object_min_height_m = f64::NAN),
+                "seabed.object_min_height_m",
+            ),
+            (
+                with(&|c| c.object_min_height_m = -1.0),
+                "seabed.object_min_height_m",
+            ),
+            (
+                with(&|c| c.object_max_height_m = f64::NAN),
+                "seabed.object_max_height_m",
+            ),
+            (
+                with(&|c| {
+                    c.object_min_height_m = 0.2;
+                    c.object_max_height_m = 0.1;
+                }),
+                "seabed.object_max_height_m",
+            ),
+            (
+                with(&|c| c.max_threshold_m = f64::INFINITY),
+                "seabed.max_threshold_m",
+            ),
+            (with(&|c| c.max_iterations = usize::MAX), "seabed.max_iterations"),
+            (with(&|c| c.refit_rounds = usize::MAX), "seabed.refit_rounds"),
+        ] {
+            assert_bad_input(find_seabed(&pts, None, &cfg), field);
+        }
+    }
+
+    #[test]
+    fn a_long_up_is_scaled_before_it_is_normalised() {
+        // (1e300, 1e300, 1e300) overflowed the norm and normalised to the zero vector.
+        let u = unit_up(&Vector3::new(1e300, 1e300, 1e300)).unwrap();
+        assert!((u - Vector3::repeat(1.0 / 3f64.sqrt())).norm() < 1e-15, "{u:?}");
+        let u = unit_up(&Vector3::new(0.0, 1e-310, 0.0)).unwrap();
+        assert_eq!(u, Vector3::y());
+        for bad in [
+            Vector3::zeros(),
+            Vector3::new(f64::NAN, 0.0, -1.0),
+            Vector3::new(f64::INFINITY, 0.0, 0.0),
+        ] {
+            let e = unit_up(&bad).unwrap_err();
+            assert_eq!(e.exit_code(), 2);
+            assert!(
+                e.to_string()
+                    .starts_with("--up: must be a finite non-zero vector"),
+                "{e}"
+            );
+        }
+        // The same plane as the unit prior.
+        let (pts, truth, _) = scene(0.001, 0.0, 0.0, 12);
+        let far = truth.normal * 1e300;
+        let fit = find_seabed(&pts, Some(&far), &SeabedConfig::default()).unwrap();
+        assert!(fit.plane.normal.dot(&truth.normal) > 0.9999);
+        assert!(fit.angle_to_up_deg.unwrap() < 1.0);
     }
 }

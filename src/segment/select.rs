@@ -33,6 +33,22 @@ impl Default for SelectConfig {
     }
 }
 
+impl SelectConfig {
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the field (`select.…`).
+    pub fn validate(&self) -> Result<()> {
+        if !(self.max_span_ratio > 1.0 && self.max_span_ratio.is_finite()) {
+            return Err(Error::input(
+                "select.max_span_ratio",
+                format!("must be a finite number > 1, got {}", self.max_span_ratio),
+            ));
+        }
+        crate::config::non_negative("select.depth_weight", self.depth_weight)
+    }
+}
+
 /// The chosen cluster.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Selection {
@@ -56,16 +72,14 @@ pub fn span_score(s: &Vector3<f64>, r: &Vector3<f64>, cfg: &SelectConfig) -> Opt
 /// `reference_spans` (decreasing, metres) or, without them, the largest.
 ///
 /// # Errors
-/// [`Error::Input`] for a `max_span_ratio` ≤ 1; [`Error::Failed`] (stage `select`) when there is
+/// [`Error::Input`] for a bad configuration ([`SelectConfig::validate`]); [`Error::Failed`] (stage `select`) when there is
 /// no cluster or none fits the reference.
 pub fn select_cluster(
     clusters: &[Cluster],
     reference_spans: Option<&Vector3<f64>>,
     cfg: &SelectConfig,
 ) -> Result<Selection> {
-    if !(cfg.max_span_ratio > 1.0 && cfg.max_span_ratio.is_finite()) {
-        return Err(Error::input("select.max_span_ratio", "must be > 1"));
-    }
+    cfg.validate()?;
     if clusters.is_empty() {
         return Err(Error::failed("select", "no cluster above the seabed"));
     }
@@ -160,5 +174,20 @@ mod tests {
                 .exit_code(),
             1
         );
+    }
+
+    #[test]
+    fn depth_weight_must_be_finite_and_not_negative() {
+        let cs = [cluster(100, [0.3, 0.1, 0.05])];
+        for w in [f64::NAN, f64::INFINITY, -1.0] {
+            let cfg = SelectConfig {
+                depth_weight: w,
+                ..SelectConfig::default()
+            };
+            crate::perception::assert_bad_input(
+                select_cluster(&cs, Some(&Vector3::new(0.3, 0.1, 0.1)), &cfg),
+                "select.depth_weight",
+            );
+        }
     }
 }

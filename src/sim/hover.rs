@@ -112,7 +112,7 @@ impl HoverConfig {
             * across
             * (((hi - lo) / self.step_m).floor() + 1.0)
             * (360.0 / self.yaw_step_deg).round().max(1.0);
-        if !(candidates <= MAX_CANDIDATES) {
+        if candidates.is_nan() || candidates > MAX_CANDIDATES {
             return Err(Error::input(
                 "sim.hover",
                 format!(

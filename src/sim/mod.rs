@@ -382,7 +382,7 @@ pub fn simulate(
     let (t0, t_end) = (first.t, last.t);
     // The longest run the trajectory, the tail and the dwell's wait can make, in periods.
     let periods = (t_end - t0 + cfg.tail_s + cfg.dwell.max_wait_s) * cfg.control_rate_hz;
-    if !(periods <= MAX_PERIODS) {
+    if periods.is_nan() || periods > MAX_PERIODS {
         return Err(Error::input(
             "sim",
             format!(

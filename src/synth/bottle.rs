@@ -27,9 +27,10 @@ use std::f64::consts::PI;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct BottleConfig {
-    /// Diameter of the straight body, metres (the seed's 0.35 m).
+    /// Diameter of the straight body, metres (the seed's 0.35 m; at most [`MAX_SIZE_M`]).
     pub body_diameter_m: f64,
-    /// Overall length from the base plane to the top of the cap, metres.
+    /// Overall length from the base plane to the top of the cap, metres (at most
+    /// [`MAX_SIZE_M`]).
     pub length_m: f64,
     /// Radius of the fillet between the base and the body, metres.
     pub base_fillet_m: f64,
@@ -68,6 +69,13 @@ impl Default for BottleConfig {
         }
     }
 }
+
+/// Largest overall length and body diameter, metres: a reference file may be up to 20 m
+/// across too (see [`super::scene::reference_mesh`]).
+pub const MAX_SIZE_M: f64 = 20.0;
+
+/// Most mesh vertices (profile samples × `segments`).
+const MAX_VERTICES: f64 = 2.0e7;
 
 /// Height of the neck's support ring above the neck surface, metres.
 const SUPPORT_RING_M: f64 = 0.01;
@@ -112,8 +120,22 @@ impl BottleConfig {
                 ));
             }
         }
+        for (k, v) in [
+            ("length_m", self.length_m),
+            ("body_diameter_m", self.body_diameter_m),
+        ] {
+            if v > MAX_SIZE_M {
+                return Err(Error::input(
+                    key(k),
+                    format!("must be at most {MAX_SIZE_M} m (got {v})"),
+                ));
+            }
+        }
         if !(self.push_up_m.is_finite() && self.push_up_m >= 0.0) {
-            return Err(Error::input(key("push_up_m"), "must be zero or positive"));
+            return Err(Error::input(
+                key("push_up_m"),
+                format!("must be zero or positive (got {})", self.push_up_m),
+            ));
         }
         let r = 0.5 * self.body_diameter_m;
         if self.neck_diameter_m + 2.0 * SUPPORT_RING_M >= self.body_diameter_m {
@@ -140,6 +162,16 @@ impl BottleConfig {
                 "too short for the base fillet, shoulder, neck and cap",
             ));
         }
+        if self.push_up_m >= self.body_end_m() {
+            return Err(Error::input(
+                key("push_up_m"),
+                format!(
+                    "must be less than the straight body's end, {:.3} m from the base (got {})",
+                    self.body_end_m(),
+                    self.push_up_m
+                ),
+            ));
+        }
         if self.neck_length_m <= SUPPORT_RING_THICKNESS_M * 3.0 {
             return Err(Error::input(
                 key("neck_length_m"),
@@ -155,14 +187,23 @@ impl BottleConfig {
         if !(3..=100_000).contains(&self.segments) {
             return Err(Error::input(key("segments"), "must be between 3 and 100000"));
         }
-        let samples = self.length_m * 3.0 / self.profile_step_m;
-        if samples * self.segments as f64 > 2.0e7 {
+        if self.profile_samples_bound() * self.segments as f64 > MAX_VERTICES {
             return Err(Error::input(
                 key("profile_step_m"),
-                "too fine: the mesh would exceed 20 million vertices",
+                "too fine for the bottle's size and segments: the mesh would exceed 20 million vertices",
             ));
         }
         Ok(())
+    }
+
+    /// An upper bound of the number of samples of [`Self::profile`] for dimensions that passed
+    /// the other checks of [`Self::validate`]: its path (the base across the body's radius, the
+    /// body, the shoulder, the neck with its ring and the cap across their radii) is shorter than
+    /// `1.2 length + 2.6 diameter + 35 mm`, so than `2 length + 4 diameter` (the neck and cap
+    /// need 27 mm of the length, and the cap 24 mm of the diameter), sampled every
+    /// `profile_step_m`, plus at most two samples for each of its 13 pieces and the first.
+    fn profile_samples_bound(&self) -> f64 {
+        (2.0 * self.length_m + 4.0 * self.body_diameter_m) / self.profile_step_m + 32.0
     }
 
     /// The profile `(s, r)` from the base pole to the cap pole, `s` measured from the base plane.
@@ -387,5 +428,82 @@ mod tests {
                 .to_string()
                 .contains("cap_diameter_m")
         );
+    }
+
+    #[test]
+    fn a_huge_bottle_is_rejected_before_its_mesh_is_built() {
+        // 1e6 m allocated 432 GB; 1e300 m never finished sampling its profile.
+        for d in [1e6, 1e300, 20.5] {
+            let cfg = BottleConfig {
+                body_diameter_m: d,
+                ..Default::default()
+            };
+            crate::perception::assert_bad_input(bottle_mesh(&cfg), "bottle.body_diameter_m");
+        }
+        let cfg = BottleConfig {
+            length_m: 1e300,
+            ..Default::default()
+        };
+        crate::perception::assert_bad_input(bottle_mesh(&cfg), "bottle.length_m");
+        let cfg = BottleConfig {
+            push_up_m: 1e300,
+            ..Default::default()
+        };
+        crate::perception::assert_bad_input(bottle_mesh(&cfg), "bottle.push_up_m");
+        // Wide and fine: the vertex estimate counts the diameter too.
+        let cfg = BottleConfig {
+            body_diameter_m: 20.0,
+            length_m: 20.0,
+            profile_step_m: 0.001,
+            segments: 1000,
+            ..Default::default()
+        };
+        crate::perception::assert_bad_input(bottle_mesh(&cfg), "bottle.profile_step_m");
+    }
+
+    #[test]
+    fn the_sample_bound_holds() {
+        let default = BottleConfig::default();
+        let tiny = BottleConfig {
+            body_diameter_m: 0.045,
+            length_m: 0.09,
+            base_fillet_m: 0.005,
+            push_up_m: 0.0,
+            shoulder_length_m: 0.005,
+            neck_diameter_m: 0.024,
+            neck_length_m: 0.016,
+            cap_diameter_m: 0.0241,
+            cap_length_m: 0.0121,
+            profile_step_m: 1e-4,
+            segments: 3,
+        };
+        for cfg in [
+            default.clone(),
+            BottleConfig {
+                body_diameter_m: 20.0,
+                length_m: 20.0,
+                ..default.clone()
+            },
+            BottleConfig {
+                body_diameter_m: 2.0,
+                length_m: 0.6,
+                shoulder_length_m: 0.1,
+                profile_step_m: 0.0005,
+                ..default.clone()
+            },
+            BottleConfig {
+                profile_step_m: 1.0,
+                ..default.clone()
+            },
+            tiny,
+        ] {
+            cfg.validate("bottle").unwrap();
+            let n = cfg.profile().len() as f64;
+            assert!(
+                n <= cfg.profile_samples_bound(),
+                "{n} > {} for {cfg:?}",
+                cfg.profile_samples_bound()
+            );
+        }
     }
 }

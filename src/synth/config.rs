@@ -533,4 +533,13 @@ mod tests {
         let e = from_toml_str::<SynthConfig>("[sensor]\ndisparity_sigma = 0.1\n", "x.toml").unwrap_err();
         assert!(e.to_string().contains("disparity_sigma"), "{e}");
     }
+
+    #[test]
+    fn a_bottle_larger_than_a_reference_file_may_be_is_rejected() {
+        for d in ["1e6", "1e300", "nan"] {
+            let c: SynthConfig =
+                from_toml_str(&format!("[object.bottle]\nbody_diameter_m = {d}\n"), "x.toml").unwrap();
+            crate::perception::assert_bad_input(c.validate(), "config object.bottle.body_diameter_m");
+        }
+    }
 }
