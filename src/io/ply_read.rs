@@ -10,6 +10,12 @@
 //! element needs (binary: its records with empty lists; ascii: two bytes per value) is summed with
 //! checked arithmetic and compared with the bytes after the header. Capacities are therefore
 //! bounded by the file's size, never by a header count alone.
+//!
+//! An ascii record is one line: a line with more or fewer values than its element's properties
+//! (a list: its length, then that many entries) is an error naming the line, so a stray or missing
+//! value cannot shift every later value. Anything after the declared elements (ascii: a line that
+//! is not blank; binary: any byte, a trailing newline included) is an error too: the header
+//! under-counts.
 
 use super::ply::{ElementInfo, PlyInfo};
 use crate::cloud::PointCloud;
@@ -614,13 +620,7 @@ impl Binary<'_> {
                     let n = c
                         .read(self.data.get(self.pos..).unwrap_or_default(), self.be)
                         .ok_or_else(|| truncated(e, record))?;
-                    if n < 0.0 {
-                        return Err(format!(
-                            "impossible list length {n} in record {record} of element '{}' (negative)",
-                            e.name
-                        ));
-                    }
-                    let n = n as u64;
+                    let n = list_len(n, e, record)?;
                     self.pos += c.size();
                     let bytes = n.saturating_mul(item.size() as u64);
                     let left = self.data.len().saturating_sub(self.pos) as u64;
@@ -647,48 +647,212 @@ impl Binary<'_> {
         }
         Ok(())
     }
+
+    /// After the last element (`last`): any byte left over is an error, but for a line break
+    /// (`\n` or `\r\n`) that a writer may end the file with.
+    fn finish(&self, last: Option<&Element>) -> std::result::Result<(), String> {
+        let extra = self.data.len().saturating_sub(self.pos);
+        if matches!(&self.data[self.pos..], b"" | b"\n" | b"\r\n") {
+            return Ok(());
+        }
+        let shown = &self.data[self.pos..self.pos + extra.min(8)];
+        let more = if extra > 8 { "..." } else { "" };
+        let records = last
+            .and_then(|e| Some((e, e.fixed_stride()?)))
+            .filter(|&(_, stride)| stride > 0 && extra.is_multiple_of(stride))
+            .map_or(String::new(), |(e, stride)| {
+                format!(", enough for {} more '{}' records", extra / stride, e.name)
+            });
+        Err(format!(
+            "{} after the declared elements ('{}{more}'; the elements take {} of the {} payload bytes{records}): \
+             does the header under-count?",
+            plural(extra as u64, "byte", "bytes"),
+            shown.escape_ascii(),
+            self.pos,
+            self.data.len()
+        ))
+    }
 }
 
-/// Ascii payload tokenizer that tracks line numbers.
+/// Ascii payload walker: every record is one line (blank lines are skipped).
 struct Ascii<'a> {
     data: &'a [u8],
     pos: usize,
+    /// Line number in the file of the line last taken (the header's lines counted).
     line: usize,
 }
 
-impl<'a> Ascii<'a> {
-    fn token(&mut self) -> Option<&'a str> {
-        let d = self.data;
-        while let Some(&b) = d.get(self.pos) {
-            if b == b'\n' {
-                self.line += 1;
-            } else if !b.is_ascii_whitespace() {
-                break;
-            }
-            self.pos += 1;
-        }
-        let start = self.pos;
-        while d.get(self.pos).is_some_and(|b| !b.is_ascii_whitespace()) {
-            self.pos += 1;
-        }
-        if start == self.pos {
+/// The values of one line, split at ascii whitespace.
+struct Fields<'a> {
+    rest: &'a [u8],
+    /// Values taken so far.
+    taken: u64,
+}
+
+impl<'a> Fields<'a> {
+    #[inline]
+    fn next(&mut self) -> Option<&'a [u8]> {
+        let Some(start) = self.rest.iter().position(|b| !b.is_ascii_whitespace()) else {
+            self.rest = &[];
             return None;
+        };
+        let rest = &self.rest[start..];
+        let end = rest
+            .iter()
+            .position(u8::is_ascii_whitespace)
+            .unwrap_or(rest.len());
+        self.rest = &rest[end..];
+        self.taken += 1;
+        Some(&rest[..end])
+    }
+}
+
+fn plural(n: u64, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+impl<'a> Ascii<'a> {
+    /// The next line that is not blank, without its line break; `None` at the end of the data.
+    fn next_line(&mut self) -> Option<&'a [u8]> {
+        let d = self.data;
+        while self.pos < d.len() {
+            let rest = &d[self.pos..];
+            let len = rest.iter().position(|&b| b == b'\n').unwrap_or(rest.len());
+            self.pos += (len + 1).min(rest.len());
+            self.line += 1;
+            let line = &rest[..len];
+            if !line.iter().all(u8::is_ascii_whitespace) {
+                return Some(line);
+            }
         }
-        std::str::from_utf8(&d[start..self.pos]).ok().or(Some("\u{fffd}"))
+        None
     }
 
-    fn value(
+    /// Reads record `r` of `e`: one line holding exactly its values (a list: its length, then that
+    /// many entries). Scalars are parsed at their declared type and stored in `scalars[k]` when
+    /// `scalars` has a slot `k`; the entries of list property `keep.0` are parsed into `keep.1`;
+    /// the entries of other lists are only counted.
+    fn record(
         &mut self,
         e: &Element,
-        record: u64,
-        p: &Property,
+        r: u64,
+        scalars: &mut [f64],
+        mut keep: Option<(usize, &mut Vec<f64>)>,
+    ) -> std::result::Result<(), String> {
+        if e.props.is_empty() {
+            return Ok(()); // nothing to read: a blank line at most
+        }
+        let line = self.next_line().ok_or_else(|| truncated(e, r))?;
+        let mut f = Fields { rest: line, taken: 0 };
+        // One value per property, plus the entries of the lists whose length is known.
+        let mut expected = e.props.len() as u64;
+        let mut last_list = None;
+        for (k, p) in e.props.iter().enumerate() {
+            match p.kind {
+                Kind::Scalar(s) => {
+                    let t = f
+                        .next()
+                        .ok_or_else(|| self.short(e, r, f.taken, expected, k, None))?;
+                    let v = self.parse(t, s, e, r, p)?;
+                    if let Some(slot) = scalars.get_mut(k) {
+                        *slot = v;
+                    }
+                }
+                Kind::List(c, item) => {
+                    let t = f
+                        .next()
+                        .ok_or_else(|| self.short(e, r, f.taken, expected, k, None))?;
+                    let n = list_len(self.parse(t, c, e, r, p)?, e, r)?;
+                    expected = expected.saturating_add(n);
+                    let mut out = match &mut keep {
+                        Some((kept, buf)) if *kept == k => {
+                            buf.clear();
+                            Some(&mut **buf)
+                        }
+                        _ => None,
+                    };
+                    for got in 0..n {
+                        let t = f
+                            .next()
+                            .ok_or_else(|| self.short(e, r, f.taken, expected, k, Some((n, got))))?;
+                        if let Some(buf) = out.as_mut() {
+                            buf.push(self.parse(t, item, e, r, p)?);
+                        }
+                    }
+                    last_list = Some((p, n));
+                }
+            }
+        }
+        if f.next().is_some() {
+            while f.next().is_some() {}
+            let why = last_list.map_or(String::new(), |(p, n)| {
+                format!(" (list '{}' declares length {n})", p.name)
+            });
+            return Err(format!(
+                "line {}: record {r} of element '{}' has {}, expected {expected}{why}",
+                self.line,
+                e.name,
+                plural(f.taken, "value", "values")
+            ));
+        }
+        Ok(())
+    }
+
+    /// The error for record `r`'s line ending too soon: before property `k`, or inside list `k`
+    /// after `got` of its `n` entries (`list = Some((n, got))`). When nothing but whitespace
+    /// follows the line, the file was cut short: a truncated payload.
+    fn short(
+        &self,
+        e: &Element,
+        r: u64,
+        found: u64,
+        expected: u64,
+        k: usize,
+        list: Option<(u64, u64)>,
+    ) -> String {
+        let p = &e.props[k];
+        // A list whose length is still unknown makes the expected count a lower bound.
+        let unknown = e.props[k + usize::from(list.is_some())..]
+            .iter()
+            .any(|p| matches!(p.kind, Kind::List(..)));
+        let at_least = if unknown { "at least " } else { "" };
+        let why = match list {
+            None => format!("no value for '{}'", p.name),
+            Some((n, got)) => format!(
+                "list '{}' declares length {n} but {} follow",
+                p.name,
+                plural(got, "entry", "entries")
+            ),
+        };
+        let has = format!(
+            "{}, expected {at_least}{expected} ({why})",
+            plural(found, "value", "values")
+        );
+        if self.data[self.pos..].iter().all(u8::is_ascii_whitespace) {
+            format!(
+                "{}: the file ends after line {}, which has {has}",
+                truncated(e, r),
+                self.line
+            )
+        } else {
+            format!("line {}: record {r} of element '{}' has {has}", self.line, e.name)
+        }
+    }
+
+    /// Parses value `t` of property `p` (record `r` of `e`) as `s`.
+    fn parse(
+        &self,
+        t: &[u8],
         s: Scalar,
+        e: &Element,
+        r: u64,
+        p: &Property,
     ) -> std::result::Result<f64, String> {
-        let t = self.token().ok_or_else(|| truncated(e, record))?;
+        let t = std::str::from_utf8(t).unwrap_or("\u{fffd}");
         s.parse_token(t).ok_or_else(|| {
             let shown: String = t.chars().take(24).collect();
             format!(
-                "payload line {}: '{}' is not a valid {} for property '{}' of element '{}'",
+                "line {}: '{}' is not a valid {} for property '{}' of element '{}' (record {r})",
                 self.line,
                 shown.escape_default(),
                 s.name(),
@@ -696,6 +860,24 @@ impl<'a> Ascii<'a> {
                 e.name
             )
         })
+    }
+
+    /// After the last element: anything but whitespace left over is an error.
+    fn finish(&mut self) -> std::result::Result<(), String> {
+        let Some(first) = self.next_line() else {
+            return Ok(());
+        };
+        let at = self.line;
+        let mut n = 1u64;
+        while self.next_line().is_some() {
+            n += 1;
+        }
+        let shown: String = String::from_utf8_lossy(first).trim().chars().take(24).collect();
+        Err(format!(
+            "{} after the declared elements (the first is line {at}: '{}'): does the header under-count?",
+            plural(n, "more line", "more lines"),
+            shown.escape_default()
+        ))
     }
 }
 
@@ -766,7 +948,12 @@ pub(crate) fn parse(bytes: &[u8], faces: Faces) -> std::result::Result<Parsed, S
     let mut txt = Ascii {
         data: payload,
         pos: 0,
-        line: 1,
+        // The payload starts on the line after `end_header`.
+        line: if ascii {
+            bytes[..h.payload_start].iter().filter(|&&b| b == b'\n').count()
+        } else {
+            0
+        },
     };
     for e in &h.elements {
         let is_vertex = std::ptr::eq(e, vertex_el);
@@ -806,6 +993,11 @@ pub(crate) fn parse(bytes: &[u8], faces: Faces) -> std::result::Result<Parsed, S
         } else {
             skip_binary(&mut bin, e)?;
         }
+    }
+    if ascii {
+        txt.finish()?;
+    } else {
+        bin.finish(h.elements.last())?;
     }
     let v = verts.ok_or("the header declares no 'vertex' element")?;
     let cloud = PointCloud {
@@ -888,12 +1080,7 @@ fn read_vertices_ascii(txt: &mut Ascii, e: &Element, v: &mut Vertices) -> std::r
     let mut vals = vec![0.0f64; e.props.len()];
     let l = v.layout;
     for r in 0..e.count {
-        for (k, p) in e.props.iter().enumerate() {
-            match p.kind {
-                Kind::Scalar(s) => vals[k] = txt.value(e, r, p, s)?,
-                Kind::List(c, _) => skip_ascii_list(txt, e, r, p, c)?,
-            }
-        }
+        txt.record(e, r, &mut vals, None)?;
         let get = |(k, _): (usize, Scalar)| vals[k];
         let p = Point3::new(get(l.xyz[0]), get(l.xyz[1]), get(l.xyz[2]));
         let c = l.rgb.map_or([0; 3], |a| a.map(|(k, s)| colour(vals[k], s)));
@@ -905,47 +1092,30 @@ fn read_vertices_ascii(txt: &mut Ascii, e: &Element, v: &mut Vertices) -> std::r
     Ok(())
 }
 
-fn list_len(n: f64, e: &Element, r: u64, left: usize) -> std::result::Result<u64, String> {
+/// A list's length as read (binary or ascii); negative is impossible.
+fn list_len(n: f64, e: &Element, r: u64) -> std::result::Result<u64, String> {
     if n < 0.0 {
         return Err(format!(
             "impossible list length {n} in record {r} of element '{}' (negative)",
             e.name
         ));
     }
-    if n > (left / 2 + 1) as f64 {
-        return Err(format!(
-            "impossible list length {n} in record {r} of element '{}' (only {left} bytes remain)",
-            e.name
-        ));
-    }
     Ok(n as u64)
 }
 
-fn skip_ascii_list(
-    txt: &mut Ascii,
-    e: &Element,
-    r: u64,
-    p: &Property,
-    c: Scalar,
-) -> std::result::Result<(), String> {
-    let n = txt.value(e, r, p, c)?;
-    let n = list_len(n, e, r, txt.data.len() - txt.pos)?;
-    for _ in 0..n {
-        txt.token().ok_or_else(|| truncated(e, r))?;
+/// A face's vertex index as read (binary or ascii); negative is out of range.
+fn face_index(x: f64, face: u64) -> std::result::Result<u64, String> {
+    if x < 0.0 {
+        return Err(format!(
+            "face {face} has vertex index {x} out of range (negative)"
+        ));
     }
-    Ok(())
+    Ok(x as u64)
 }
 
 fn skip_ascii(txt: &mut Ascii, e: &Element) -> std::result::Result<(), String> {
     for r in 0..e.count {
-        for p in &e.props {
-            match p.kind {
-                Kind::Scalar(s) => {
-                    txt.value(e, r, p, s)?;
-                }
-                Kind::List(c, _) => skip_ascii_list(txt, e, r, p, c)?,
-            }
-        }
+        txt.record(e, r, &mut [], None)?;
     }
     Ok(())
 }
@@ -991,10 +1161,7 @@ fn read_faces_binary(
                     let x = item
                         .read(data.get(at + j * item.size()..).unwrap_or_default(), be)
                         .ok_or_else(|| truncated(e, r))?;
-                    if x < 0.0 {
-                        return Err(format!("face {r} has vertex index {x} out of range (negative)"));
-                    }
-                    sink.polygon.push(x as u64);
+                    sink.polygon.push(face_index(x, r)?);
                 }
                 sink.finish_polygon(v, r)
             },
@@ -1010,28 +1177,14 @@ fn read_faces_ascii(
     v: &Vertices,
     sink: &mut FaceSink,
 ) -> std::result::Result<(), String> {
+    let mut entries = Vec::new();
     for r in 0..e.count {
-        for (k, p) in e.props.iter().enumerate() {
-            match p.kind {
-                Kind::Scalar(s) => {
-                    txt.value(e, r, p, s)?;
-                }
-                Kind::List(c, _) if k != list => skip_ascii_list(txt, e, r, p, c)?,
-                Kind::List(c, item) => {
-                    let n = txt.value(e, r, p, c)?;
-                    let n = list_len(n, e, r, txt.data.len() - txt.pos)?;
-                    sink.polygon.clear();
-                    for _ in 0..n {
-                        let x = txt.value(e, r, p, item)?;
-                        if x < 0.0 {
-                            return Err(format!("face {r} has vertex index {x} out of range (negative)"));
-                        }
-                        sink.polygon.push(x as u64);
-                    }
-                    sink.finish_polygon(v, r)?;
-                }
-            }
+        txt.record(e, r, &mut [], Some((list, &mut entries)))?;
+        sink.polygon.clear();
+        for &x in &entries {
+            sink.polygon.push(face_index(x, r)?);
         }
+        sink.finish_polygon(v, r)?;
     }
     Ok(())
 }
@@ -1206,6 +1359,169 @@ mod tests {
         assert_eq!(p.cloud.len(), 4);
         assert_eq!(p.cloud.colors.unwrap()[3], [3, 6, 9]);
         assert_eq!(p.triangles, vec![[0, 1, 2], [0, 2, 3], [0, 3, 1]]);
+    }
+
+    const XYZ3: &str = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                        property float z\nend_header\n";
+
+    /// The error for an ascii file made of `head` and `body`; it must be one line.
+    fn ascii_err(head: &str, body: &str, faces: Faces) -> String {
+        let e = parse(&ascii_file(&format!("{head}{body}")), faces).err().unwrap();
+        assert!(!e.contains('\n'), "not one line: {e}");
+        e
+    }
+
+    #[test]
+    fn ascii_line_with_an_extra_value_is_an_error() {
+        // Read as a token stream this was vertex (9, 1, 1) and bbox_max [9, 2, 2].
+        let e = ascii_err(XYZ3, "0 0 0 9\n1 1 1\n2 2 2\n", Faces::Skip);
+        assert_eq!(e, "line 8: record 0 of element 'vertex' has 4 values, expected 3");
+    }
+
+    #[test]
+    fn ascii_line_with_a_missing_value_is_an_error() {
+        let e = ascii_err(XYZ3, "0 0\n1 1 1\n2 2 2 3\n", Faces::Skip);
+        assert_eq!(
+            e,
+            "line 8: record 0 of element 'vertex' has 2 values, expected 3 (no value for 'z')"
+        );
+        let e = ascii_err(XYZ3, "0 0 0\n1 1\n2 2 2 3\n", Faces::Skip);
+        assert!(
+            e.starts_with("line 9: record 1 of element 'vertex' has 2 values"),
+            "{e}"
+        );
+        // On the last line, the file was cut short.
+        let e = ascii_err(XYZ3, "0.0 0.0 0.0\n1 1 1\n2 2\n", Faces::Skip);
+        assert_eq!(
+            e,
+            "truncated payload: element 'vertex' ends after 2 of 3 records: the file ends after line 10, \
+             which has 2 values, expected 3 (no value for 'z')"
+        );
+    }
+
+    #[test]
+    fn ascii_records_after_the_declared_elements_are_an_error() {
+        let e = ascii_err(XYZ3, "0 0 0\n1 1 1\n2 2 2\n3 3 3\n4 4 4\n", Faces::Skip);
+        assert_eq!(
+            e,
+            "2 more lines after the declared elements (the first is line 11: '3 3 3'): \
+             does the header under-count?"
+        );
+        // Trailing blank lines are not records.
+        let p = parse(
+            &ascii_file(&format!("{XYZ3}0 0 0\n1 1 1\n2 2 2\n\n  \n")),
+            Faces::Skip,
+        )
+        .unwrap();
+        assert_eq!(p.cloud.len(), 3);
+    }
+
+    #[test]
+    fn ascii_crlf_blank_lines_and_no_final_newline_are_accepted() {
+        let head = XYZ3.replace('\n', "\r\n");
+        let p = parse(
+            &ascii_file(&format!("{head}0 0 0\r\n\r\n1 1 1 \r\n\t2 2 2")),
+            Faces::Skip,
+        )
+        .unwrap();
+        assert_eq!(p.cloud.points[2], Point3::new(2.0, 2.0, 2.0));
+    }
+
+    #[test]
+    fn ascii_list_length_must_match_its_entries() {
+        let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                    property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n\
+                    0 0 0\n1 1 1\n2 2 2\n";
+        for faces in [Faces::Read, Faces::Skip] {
+            let e = ascii_err(head, "3 0 1 2 2\n3 0 1 2\n", faces);
+            assert_eq!(
+                e,
+                "line 13: record 0 of element 'face' has 5 values, expected 4 \
+                 (list 'vertex_indices' declares length 3)"
+            );
+            let e = ascii_err(head, "4 0 1 2\n3 0 1 2\n", faces);
+            assert_eq!(
+                e,
+                "line 13: record 0 of element 'face' has 4 values, expected 5 \
+                 (list 'vertex_indices' declares length 4 but 3 entries follow)"
+            );
+            // A list before other properties: the expected count is a lower bound until it is read.
+            let e = ascii_err(
+                &head.replace("property list", "property list uchar int tags\nproperty list"),
+                "\n2 7 8\n3 0 1 2\n",
+                faces,
+            );
+            assert_eq!(
+                e,
+                "line 15: record 0 of element 'face' has 3 values, expected at least 4 \
+                 (no value for 'vertex_indices')"
+            );
+        }
+    }
+
+    /// A binary little-endian file of `float x y z` records: `declared` in the header, `points`
+    /// in the payload, then `tail`.
+    fn binary_xyz(declared: usize, points: &[[f32; 3]], tail: &[u8]) -> Vec<u8> {
+        let mut payload: Vec<u8> = points.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+        payload.extend_from_slice(tail);
+        binary(
+            &format!(
+                "ply\nformat binary_little_endian 1.0\nelement vertex {declared}\nproperty float x\n\
+                 property float y\nproperty float z\nend_header\n"
+            ),
+            &payload,
+        )
+    }
+
+    #[test]
+    fn binary_records_after_the_declared_elements_are_an_error() {
+        let pts = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0], [3.0, 3.0, 3.0]];
+        assert_eq!(
+            parse(&binary_xyz(4, &pts, b""), Faces::Skip).unwrap().cloud.len(),
+            4
+        );
+        let e = parse(&binary_xyz(2, &pts, b""), Faces::Skip).err().unwrap();
+        assert!(!e.contains('\n'), "{e}");
+        assert!(
+            e.starts_with("24 bytes after the declared elements ('")
+                && e.ends_with(
+                    "...'; the elements take 24 of the 48 payload bytes, enough for 2 more 'vertex' records): \
+                     does the header under-count?"
+                ),
+            "{e}"
+        );
+        // Not a whole record: no record count offered.
+        let e = parse(&binary_xyz(4, &pts, b"junk"), Faces::Read).err().unwrap();
+        assert_eq!(
+            e,
+            "4 bytes after the declared elements ('junk'; the elements take 48 of the 52 payload bytes): \
+             does the header under-count?"
+        );
+        // After a list-bearing element too.
+        let mut f = sample_binary();
+        f.push(0);
+        let e = parse(&f, Faces::Skip).err().unwrap();
+        assert!(
+            e.starts_with("1 byte after the declared elements ('\\x00'"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn binary_trailing_line_break_is_accepted_and_nothing_more() {
+        // A writer may end the file with a line break; two are already data.
+        for end in [&b"\n"[..], b"\r\n"] {
+            let p = parse(&binary_xyz(1, &[[1.0, 2.0, 3.0]], end), Faces::Skip).unwrap();
+            assert_eq!(p.cloud.points.len(), 1);
+        }
+        let e = parse(&binary_xyz(1, &[[1.0, 2.0, 3.0]], b"\n\n"), Faces::Skip)
+            .err()
+            .unwrap();
+        assert_eq!(
+            e,
+            "2 bytes after the declared elements ('\\n\\n'; the elements take 12 of the 14 payload bytes): \
+             does the header under-count?"
+        );
     }
 
     proptest::proptest! {
