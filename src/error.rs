@@ -49,6 +49,24 @@ impl Error {
         }
     }
 
+    /// A bad value of a configuration read from `origin` (a file), its key in the file's table
+    /// `table` (`"plan."`, or `""` for the top level): the error names the file and the whole
+    /// key. Other errors are unchanged.
+    #[must_use]
+    pub fn in_table(self, origin: impl Display, table: &str) -> Self {
+        match self {
+            Error::Input { what, reason } if what.starts_with(table) => Error::Input {
+                what: format!("{origin}: {what}"),
+                reason,
+            },
+            Error::Input { what, reason } => Error::Input {
+                what: format!("{origin}: {table}{what}"),
+                reason,
+            },
+            other => other,
+        }
+    }
+
     /// The process exit code the command line uses for this error: 2 for bad input, 1 for a
     /// failed run.
     pub fn exit_code(&self) -> i32 {
@@ -67,3 +85,25 @@ fn one_line(reason: impl Display) -> String {
 
 /// The library's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn in_table_names_the_file_and_the_whole_key() {
+        let e = Error::input("seabed.threshold_m", "must be ≥ 0").in_table("p.toml", "perception.");
+        assert_eq!(
+            e.to_string(),
+            "p.toml: perception.seabed.threshold_m: must be ≥ 0"
+        );
+        // A key already in the table's terms keeps them; a failed run is left alone.
+        let e = Error::input("sim.tail_s", "must be ≥ 0").in_table("p.toml", "sim.");
+        assert_eq!(e.to_string(), "p.toml: sim.tail_s: must be ≥ 0");
+        let e = Error::failed("icp", "did not converge").in_table("p.toml", "perception.");
+        assert_eq!(
+            (e.to_string().as_str(), e.exit_code()),
+            ("icp: did not converge", 1)
+        );
+    }
+}

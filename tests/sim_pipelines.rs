@@ -369,7 +369,18 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         dir.path().join("o2").to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("sim.dwell"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("variant.toml: sim.dwell.tolerance_n"));
+    // A perception value: named with its table in the pipeline file, found before any stage.
+    let p5 = variant(dir.path(), "[perception.clean]\nvoxel_m = nan");
+    let o5 = dir.path().join("o5");
+    let o = run(&["run", p5.to_str().unwrap(), "--out", o5.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("variant.toml: perception.clean.voxel_m"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(!o5.exists(), "a bad perception value left files");
     // Found before the first stage runs: nothing written.
     assert!(
         !dir.path().join("o2").exists(),

@@ -4,7 +4,7 @@
 //! estimate always, pose errors and ADD-S when the truth is known.
 
 use super::segment::{load_reference, parse_vector3, segmentation_summary, segmentation_text};
-use super::{Ctx, Report};
+use super::{Ctx, Report, config_origin};
 use crate::error::{Error, Result};
 use crate::frames::{Pose, pose_to_rows, read_pose_file};
 use crate::io::ply::{read_cloud, write_cloud, write_mesh};
@@ -230,7 +230,8 @@ pub fn write_check_products(out: &OutDir, result: &CheckResult, reference: &Path
 /// stage fails — no plane, no cluster fitting the reference, ICP not converged (exit 1).
 pub fn run(args: &CheckArgs, _ctx: &Ctx) -> Result<Report> {
     let cfg: PerceptionConfig = crate::config::load(args.config.as_deref())?;
-    cfg.validate()?;
+    cfg.validate()
+        .map_err(|e| e.in_table(config_origin(args.config.as_deref()), ""))?;
     let init = init_mode(&args.init)?;
     let truth = match &args.ground_truth {
         Some(p) => Some(read_pose_file(p, "t_scan_reference")?),

@@ -97,6 +97,11 @@ impl Ctx {
     }
 }
 
+/// How errors name a command's configuration: its file, or `configuration` (the defaults).
+pub(crate) fn config_origin(config: Option<&std::path::Path>) -> String {
+    config.map_or_else(|| "configuration".into(), |p| p.display().to_string())
+}
+
 /// Runs a parsed command line: the command, then its summary and text.
 ///
 /// # Errors

@@ -10,7 +10,7 @@
 
 use super::check::{self, check_summary, check_text, init_file, init_mode, write_check_products};
 use super::segment::{load_reference, parse_vector3, segmentation_summary};
-use super::{Ctx, Report};
+use super::{Ctx, Report, config_origin};
 use crate::error::{Error, Result};
 use crate::frames::read_pose_file;
 use crate::io::ply::read_cloud;
@@ -138,7 +138,11 @@ fn seabed_surface(points: &[Point3<f64>], inliers: &[usize], cfg: &PerceptionCon
 /// or is wider than the scanned surface (exit 1).
 pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
     let mut cfg: PlanCommandConfig = crate::config::load(args.config.as_deref())?;
-    cfg.perception.validate()?;
+    let origin = config_origin(args.config.as_deref());
+    cfg.perception
+        .validate()
+        .map_err(|e| e.in_table(&origin, "perception."))?;
+    cfg.plan.validate().map_err(|e| e.in_table(&origin, "plan."))?;
     // A polyline file named in the configuration is relative to it (as in `uvms sim` and
     // `uvms run`); one given with `--pattern` is relative to the working directory.
     cfg.plan.polyline.file = cfg

@@ -73,9 +73,12 @@ impl Pipeline {
         resolve_paths(&mut p.sim, file);
         // Every stage's values before the first stage runs: a bad value of a late stage must
         // not fail the run after the early stages have written their products.
-        p.perception.validate()?;
-        p.plan.validate()?;
-        p.sim.validate()?;
+        let origin = path.display();
+        p.perception
+            .validate()
+            .map_err(|e| e.in_table(&origin, "perception."))?;
+        p.plan.validate().map_err(|e| e.in_table(&origin, "plan."))?;
+        p.sim.validate().map_err(|e| e.in_table(&origin, "sim."))?;
         Ok(p)
     }
 }

@@ -2,7 +2,7 @@
 //! seabed and the clusters standing on it, as coloured PLYs in the style of the seed's Figure 10
 //! (seabed red, the object green, other clusters in other colours, the rest grey).
 
-use super::{Ctx, Report};
+use super::{Ctx, Report, config_origin};
 use crate::cloud::PointCloud;
 use crate::error::{Error, Result};
 use crate::io::ply::{read_cloud, read_ply, write_cloud};
@@ -204,7 +204,8 @@ pub fn segmentation_text(seg: &Segmentation, text: &mut String) {
 /// cluster is found (exit 1).
 pub fn run(args: &SegmentArgs, _ctx: &Ctx) -> Result<Report> {
     let cfg: PerceptionConfig = crate::config::load(args.config.as_deref())?;
-    cfg.validate()?;
+    cfg.validate()
+        .map_err(|e| e.in_table(config_origin(args.config.as_deref()), ""))?;
     let mut inputs: Vec<&Path> = vec![&args.scan];
     if let Some(r) = &args.reference {
         inputs.push(r);
