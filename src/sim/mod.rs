@@ -556,7 +556,20 @@ pub fn simulate(
         } else {
             h
         };
-        match tcu::set_point(arm, &tcu::tool_in_base(arm, &target, &believed), &q_set)? {
+        // The IK refuses only a target that is not finite: the controllers' estimates ran out
+        // of range.
+        let out_of_range = |e: Error| {
+            Error::failed(
+                "sim",
+                format!(
+                    "at t = {t:.3} s the controllers' tool target is not finite ({e}): a value out of range (a sensor noise, a force set-point, a model scale?); last finite state: {}",
+                    describe(&plant.state)
+                ),
+            )
+        };
+        match tcu::set_point(arm, &tcu::tool_in_base(arm, &target, &believed), &q_set)
+            .map_err(out_of_range)?
+        {
             Some(q) => q_set = q,
             None => unreachable += 1,
         }
@@ -570,7 +583,8 @@ pub fn simulate(
         // one a period) over the refresh's whole interval.
         if cfg.joints.rate_feedforward_hz > 0.0 && k.is_multiple_of(rate_every) {
             if let Some(prev) = rate_from {
-                qd_set = tcu::set_point(arm, &tcu::tool_in_base(arm, &prev, &believed), &q_set)?
+                qd_set = tcu::set_point(arm, &tcu::tool_in_base(arm, &prev, &believed), &q_set)
+                    .map_err(out_of_range)?
                     .map_or_else(JointVector::zeros, |q| (q_set - q) / (rate_every as f64 * dt));
             }
             rate_from = Some(target);
