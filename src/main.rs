@@ -14,6 +14,10 @@ fn main() -> ExitCode {
         }
         // A usage error in one line, as every other error: clap's message up to its usage
         // lines, and where to look.
+        Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            eprintln!("error: usage: a command is required (see uvms --help)");
+            return ExitCode::from(2);
+        }
         Err(e) => {
             let rendered = e.render().to_string();
             let message: Vec<&str> = rendered

@@ -1,10 +1,12 @@
 //! Output folders whose files appear complete or not at all.
 //!
 //! Every file is written to a temporary name in the same folder (`.NAME.tmp`) and renamed into
-//! place once it is complete, so a failed run leaves nothing half-written. A command declares
-//! the products it may write when it creates the folder, and one whose product (or that
-//! product's temporary name) is one of the run's inputs is refused then, before anything is
-//! written: inputs are never overwritten, and a run is not refused halfway.
+//! place once it is complete, so a failed run leaves nothing half-written. The temporary name is
+//! the process's own (`.NAME.PID.tmp`), created new: two runs into one folder never rename each
+//! other's half-written files, and no existing file is truncated. A command declares the
+//! products it may write when it creates the folder, and one whose product is one of the run's
+//! inputs is refused then, before anything is written: inputs are never overwritten, and a run
+//! is not refused halfway.
 
 use crate::error::{Error, Result};
 use serde::Serialize;
@@ -22,15 +24,16 @@ pub struct OutDir {
 /// What every command writes into its folder besides its products.
 const ALWAYS: [&str; 2] = ["config.toml", "summary.json"];
 
-/// The temporary name a product is written under.
+/// The temporary name a product is written under: this process's own, so that two runs
+/// writing into one folder never rename each other's half-written files.
 fn temporary(name: &str) -> String {
-    format!(".{name}.tmp")
+    format!(".{name}.{}.tmp", std::process::id())
 }
 
 impl OutDir {
     /// Creates the folder (and its parents) if needed, for a command that writes `products`
     /// (and `config.toml`, `summary.json`). `inputs` are the run's input files: none of them
-    /// may be a product or a product's temporary name.
+    /// may be a product.
     ///
     /// # Errors
     /// [`Error::Input`] if an input would be overwritten, if `dir` exists and is not a folder,
@@ -42,18 +45,16 @@ impl OutDir {
         let inputs: Vec<PathBuf> = inputs.iter().filter_map(|p| fs::canonicalize(p).ok()).collect();
         let products: Vec<&'static str> = products.iter().chain(&ALWAYS).copied().collect();
         for name in &products {
-            for file in [name.to_string(), temporary(name)] {
-                if let Ok(canon) = fs::canonicalize(dir.join(&file))
-                    && let Some(input) = inputs.iter().find(|i| **i == canon)
-                {
-                    return Err(Error::input(
-                        input.display(),
-                        format!(
-                            "is an input, and this command writes {file} into --out {}: choose another --out",
-                            dir.display()
-                        ),
-                    ));
-                }
+            if let Ok(canon) = fs::canonicalize(dir.join(name))
+                && let Some(input) = inputs.iter().find(|i| **i == canon)
+            {
+                return Err(Error::input(
+                    input.display(),
+                    format!(
+                        "is an input, and this command writes {name} into --out {}: choose another --out",
+                        dir.display()
+                    ),
+                ));
             }
         }
         fs::create_dir_all(dir)
@@ -90,8 +91,11 @@ impl OutDir {
         }
         let tmp = self.dir.join(temporary(name));
         let stage = format!("write {}", target.display());
+        let mut created = false;
         let result = (|| {
-            let file = fs::File::create(&tmp).map_err(|e| Error::failed(&stage, e))?;
+            // Never truncate an existing file, should one have the temporary name.
+            let file = fs::File::create_new(&tmp).map_err(|e| Error::failed(&stage, e))?;
+            created = true;
             let mut w = BufWriter::new(file);
             fill(&mut w)?;
             w.flush().map_err(|e| Error::failed(&stage, e))?;
@@ -99,7 +103,7 @@ impl OutDir {
             file.sync_all().map_err(|e| Error::failed(&stage, e))?;
             fs::rename(&tmp, &target).map_err(|e| Error::failed(&stage, e))
         })();
-        if result.is_err() {
+        if result.is_err() && created {
             let _ = fs::remove_file(&tmp);
         }
         result.map(|()| target)
@@ -158,8 +162,8 @@ mod tests {
     fn refuses_an_input_among_the_products_before_writing() {
         let dir = tempfile::tempdir().unwrap();
         let sub = dir.path().join("out");
-        // The product itself, its temporary name, and the files every command writes.
-        for name in ["scan.ply", ".scan.ply.tmp", "config.toml"] {
+        // The product itself, and the files every command writes.
+        for name in ["scan.ply", "config.toml"] {
             fs::create_dir_all(&sub).unwrap();
             let input = sub.join(name);
             fs::write(&input, b"x").unwrap();
@@ -175,6 +179,17 @@ mod tests {
         let input = dir.path().join("trajectory.csv");
         fs::write(&input, b"x").unwrap();
         assert!(OutDir::create(dir.path(), &[&input], &["scan.ply"]).is_ok());
+    }
+
+    #[test]
+    fn a_file_with_the_temporary_name_is_left_as_it_is() {
+        let dir = tempfile::tempdir().unwrap();
+        let squatter = dir.path().join(temporary("a.txt"));
+        fs::write(&squatter, b"someone's").unwrap();
+        let out = OutDir::create(dir.path(), &[&squatter], &["a.txt"]).unwrap();
+        assert_eq!(out.write_bytes("a.txt", b"new").unwrap_err().exit_code(), 1);
+        assert_eq!(fs::read(&squatter).unwrap(), b"someone's");
+        assert!(!dir.path().join("a.txt").exists());
     }
 
     #[test]

@@ -423,6 +423,7 @@ fn endless_runs_and_clashing_outputs_are_refused_before_writing() {
             "[sim.navigation]\nlevelling_s = 1e300",
             "sim.navigation.levelling_s",
         ),
+        ("[sim.dwell]\nmax_wait_s = 1e300", "sim.dwell.max_wait_s"),
     ]
     .into_iter()
     .enumerate()
@@ -437,6 +438,18 @@ fn endless_runs_and_clashing_outputs_are_refused_before_writing() {
         assert!(err.contains(key) && err.lines().count() == 1, "{extra}: {err}");
         assert!(!out.exists(), "{extra} left files");
     }
+    // A zero `up` prior, found with the pipeline's values.
+    let up = variant(dir.path(), "");
+    let text = std::fs::read_to_string(&up)
+        .unwrap()
+        .replace("[input]\n", "[input]\nup = [0.0, 0.0, 0.0]\n");
+    std::fs::write(&up, text).unwrap();
+    let out = dir.path().join("up_out");
+    let o = run(&["run", up.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("variant.toml: input.up"), "{err}");
+    assert!(!out.exists(), "a zero up left files");
     // A point cloud for the true surface: found before the perception stages write.
     let cloud = variant(dir.path(), "");
     let text = std::fs::read_to_string(&cloud)

@@ -74,6 +74,10 @@ impl Pipeline {
         // Every stage's values before the first stage runs: a bad value of a late stage must
         // not fail the run after the early stages have written their products.
         let origin = path.display();
+        if let Some(up) = p.input.up {
+            crate::segment::seabed::unit_up(&up.into())
+                .map_err(|e| Error::input(format!("{origin}: input.up"), e))?;
+        }
         p.perception
             .validate()
             .map_err(|e| e.in_table(&origin, "perception."))?;

@@ -18,7 +18,7 @@ use crate::model::UvmsModel;
 use crate::output::OutDir;
 use crate::plot::{to_png, to_svg};
 use crate::sim::record::{figures, write_csv};
-use crate::sim::{SimConfig, SimSummary, SurfaceFrame, simulate};
+use crate::sim::{SimConfig, SimSummary, SurfaceFrame, check_plant_model, simulate};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write;
@@ -166,6 +166,7 @@ pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs
         .model
         .as_deref()
         .map_or_else(|| "default model".to_string(), |p| p.display().to_string());
+    check_plant_model(&model).map_err(|e| e.in_table(&origin, ""))?;
     Arm::new(&model.arm, &model.environment)?
         .check_puma_structure()
         .map_err(|e| Error::input(origin, e))?;

@@ -148,8 +148,9 @@ impl InitConfig {
                 format!("must be in (0, 1] (a fraction of the model's largest span), got {v}"),
             )?;
         }
+        // (The relative margin takes the product's rounding: 0.1 × 0.05 is 0.005000000000000001.)
         require(
-            self.gate_fraction >= NOISE_FLOOR * self.score_fraction,
+            self.gate_fraction >= NOISE_FLOOR * self.score_fraction * (1.0 - 1e-12),
             key("gate_fraction"),
             format!(
                 "must be at least {NOISE_FLOOR} × register.init.score_fraction ({}): the gate cannot \

@@ -594,7 +594,7 @@ impl SeabedConfig {
 ///
 /// # Errors
 /// [`Error::Input`] naming `--up` for a zero or non-finite vector.
-fn unit_up(u: &Vector3<f64>) -> Result<Vector3<f64>> {
+pub fn unit_up(u: &Vector3<f64>) -> Result<Vector3<f64>> {
     let err = || {
         Error::input(
             "--up",

@@ -300,6 +300,17 @@ impl SimConfig {
             return Err(Error::input("sim.plant_substeps", "must be between 1 and 1000"));
         }
         non_negative("sim.tail_s", self.tail_s)?;
+        for (key, v) in [
+            ("sim.tail_s", self.tail_s),
+            ("sim.dwell.max_wait_s", self.dwell.max_wait_s),
+        ] {
+            if v > MAX_WAIT_S {
+                return Err(Error::input(
+                    key,
+                    format!("must be at most {MAX_WAIT_S:.0e} s, got {v:e}"),
+                ));
+            }
+        }
         non_negative("sim.settle_time_s", self.settle_time_s)?;
         if !self.scenario.current_m_s.iter().all(|v| v.is_finite()) {
             return Err(Error::input("sim.scenario.current_m_s", "must be finite"));
@@ -394,12 +405,7 @@ pub fn simulate(
             ),
         ));
     }
-    if plant_model.environment.current != [0.0; 3] {
-        return Err(Error::input(
-            "model environment.current",
-            "the simulation's sea current is [sim.scenario] current_m_s; set it there and leave the model's at zero",
-        ));
-    }
+    check_plant_model(plant_model)?;
     let mut plant_model = plant_model.clone();
     plant_model.environment.current = cfg.scenario.current_m_s;
     let ctrl_model = cfg.controller_model.apply(&plant_model);
@@ -719,6 +725,25 @@ pub fn simulate(
         summary,
     })
 }
+
+/// Checks what the simulation needs of a plant's model beyond its own validation: no sea
+/// current of its own (the scenario's is the simulation's).
+///
+/// # Errors
+/// [`Error::Input`] naming `environment.current`.
+pub fn check_plant_model(model: &UvmsModel) -> Result<()> {
+    if model.environment.current == [0.0; 3] {
+        Ok(())
+    } else {
+        Err(Error::input(
+            "environment.current",
+            "the simulation's sea current is [sim.scenario] current_m_s; set it there and leave the model's at zero",
+        ))
+    }
+}
+
+/// The longest tail and dwell wait, s: about a day, the longest run at 1 kHz.
+const MAX_WAIT_S: f64 = 1e5;
 
 /// The most control periods a run may take: 10⁸, a day of simulated time at 1 kHz (some
 /// ten minutes of computing at 150× real time).
