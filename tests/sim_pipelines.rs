@@ -412,6 +412,18 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
 #[test]
 fn endless_runs_and_clashing_outputs_are_refused_before_writing() {
     let dir = tempfile::tempdir().unwrap();
+    // A pipeline refused with exit 2, one line holding each of `expect`, no output folder.
+    let refused = |pipeline: &Path, expect: &[&str]| {
+        let out = pipeline.with_file_name("out");
+        let o = run(&["run", pipeline.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.lines().count() == 1 && expect.iter().all(|e| err.contains(e)),
+            "{err}"
+        );
+        assert!(!out.exists(), "{err}: left files");
+    };
     for (i, (extra, key)) in [
         ("[sim.hover]\nstep_m = 1e-6", "sim.hover"),
         ("[sim.hover]\nhorizontal_range_m = 1e300", "sim.hover"),
@@ -430,38 +442,22 @@ fn endless_runs_and_clashing_outputs_are_refused_before_writing() {
     {
         let d = dir.path().join(i.to_string());
         std::fs::create_dir_all(&d).unwrap();
-        let p = variant(&d, extra);
-        let out = d.join("out");
-        let o = run(&["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{extra}: {err}");
-        assert!(err.contains(key) && err.lines().count() == 1, "{extra}: {err}");
-        assert!(!out.exists(), "{extra} left files");
+        refused(&variant(&d, extra), &[key]);
     }
+    // The committed pipeline with `from` replaced by `to`.
+    let edited = |from: &str, to: &str| {
+        let p = variant(dir.path(), "");
+        let text = std::fs::read_to_string(&p).unwrap().replace(from, to);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
     // A zero `up` prior, found with the pipeline's values.
-    let up = variant(dir.path(), "");
-    let text = std::fs::read_to_string(&up)
-        .unwrap()
-        .replace("[input]\n", "[input]\nup = [0.0, 0.0, 0.0]\n");
-    std::fs::write(&up, text).unwrap();
-    let out = dir.path().join("up_out");
-    let o = run(&["run", up.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("variant.toml: input.up"), "{err}");
-    assert!(!out.exists(), "a zero up left files");
+    refused(
+        &edited("[input]\n", "[input]\nup = [0.0, 0.0, 0.0]\n"),
+        &["variant.toml: input.up"],
+    );
     // A point cloud for the true surface: found before the perception stages write.
-    let cloud = variant(dir.path(), "");
-    let text = std::fs::read_to_string(&cloud)
-        .unwrap()
-        .replace("scene_mesh.ply", "scan.ply");
-    std::fs::write(&cloud, text).unwrap();
-    let out = dir.path().join("cloud_out");
-    let o = run(&["run", cloud.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("scan.ply") && err.contains("not a mesh"), "{err}");
-    assert!(!out.exists(), "a point cloud for the surface left files");
+    refused(&edited("scene_mesh.ply", "scan.ply"), &["scan.ply", "not a mesh"]);
     // A trajectory a billion seconds long.
     let (out, _) = bottle_run();
     let text = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
