@@ -98,30 +98,24 @@ pub fn load<T: DeserializeOwned + Serialize + Default>(path: Option<&Path>) -> R
 ///
 /// # Errors
 /// [`Error::Input`] naming `what`.
-pub fn positive(what: &str, v: f64) -> Result<()> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(Error::input(
-            what,
-            format!("must be a finite number > 0, got {v}"),
-        ))
-    }
+pub fn positive(what: impl std::fmt::Display, v: f64) -> Result<()> {
+    require(
+        v.is_finite() && v > 0.0,
+        what,
+        format!("must be a finite number > 0, got {v}"),
+    )
 }
 
 /// `Ok` if `v` is finite and ≥ 0, else an input error naming `what` (a configuration key).
 ///
 /// # Errors
 /// [`Error::Input`] naming `what`.
-pub fn non_negative(what: &str, v: f64) -> Result<()> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
-        Err(Error::input(
-            what,
-            format!("must be a finite number ≥ 0, got {v}"),
-        ))
-    }
+pub fn non_negative(what: impl std::fmt::Display, v: f64) -> Result<()> {
+    require(
+        v.is_finite() && v >= 0.0,
+        what,
+        format!("must be a finite number ≥ 0, got {v}"),
+    )
 }
 
 /// `Ok` if `ok`, else an input error naming `what` (a configuration key) with `why`.

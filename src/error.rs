@@ -55,14 +55,13 @@ impl Error {
     #[must_use]
     pub fn in_table(self, origin: impl Display, table: &str) -> Self {
         match self {
-            Error::Input { what, reason } if what.starts_with(table) => Error::Input {
-                what: format!("{origin}: {what}"),
-                reason,
-            },
-            Error::Input { what, reason } => Error::Input {
-                what: format!("{origin}: {table}{what}"),
-                reason,
-            },
+            Error::Input { what, reason } => {
+                let table = if what.starts_with(table) { "" } else { table };
+                Error::Input {
+                    what: format!("{origin}: {table}{what}"),
+                    reason,
+                }
+            }
             other => other,
         }
     }

@@ -523,9 +523,13 @@ fn puma560_links() -> [LinkModel; N_JOINTS] {
 /// or holds an impossible value (negative mass, a non-rotation, an empty thruster set...).
 pub fn load(path: Option<&Path>) -> Result<UvmsModel> {
     let model: UvmsModel = config::load(path)?;
-    let origin = path.map_or_else(|| "default model".to_string(), |p| p.display().to_string());
-    model.validate(&origin)?;
+    model.validate(&origin(path))?;
     Ok(model)
+}
+
+/// How errors name a model: its file, or `default model`.
+pub fn origin(path: Option<&Path>) -> String {
+    path.map_or_else(|| "default model".to_string(), |p| p.display().to_string())
 }
 
 /// The 3×3 matrix of `rows`.

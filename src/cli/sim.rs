@@ -162,10 +162,7 @@ pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs
         SurfaceFrame::World => mesh,
     };
     let model = crate::model::load(cfg.model.as_deref())?;
-    let origin = cfg
-        .model
-        .as_deref()
-        .map_or_else(|| "default model".to_string(), |p| p.display().to_string());
+    let origin = crate::model::origin(cfg.model.as_deref());
     check_plant_model(&model).map_err(|e| e.in_table(&origin, ""))?;
     Arm::new(&model.arm, &model.environment)?
         .check_puma_structure()

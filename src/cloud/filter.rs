@@ -85,7 +85,7 @@ impl OutlierConfig {
             1,
             MAX_OUTLIER_NEIGHBOURS,
         )?;
-        crate::config::non_negative(&format!("{prefix}.std_ratio"), self.std_ratio)
+        crate::config::non_negative(format!("{prefix}.std_ratio"), self.std_ratio)
     }
 }
 

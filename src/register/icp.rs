@@ -133,7 +133,6 @@ impl IcpConfig {
         let bad = |f: &str, why: &str, v: f64| {
             Err(Error::input(format!("{prefix}.{f}"), format!("{why}, got {v}")))
         };
-        let pos = |x: f64| x > 0.0 && x.is_finite();
         crate::config::count_between(
             format!("{prefix}.max_iterations"),
             self.max_iterations,
@@ -147,18 +146,15 @@ impl IcpConfig {
                 self.initial_gate_m,
             );
         }
-        let positive = [
+        for (f, v) in [
             ("min_gate_m", self.min_gate_m),
             ("gate_sigmas", self.gate_sigmas),
             ("min_sigma_m", self.min_sigma_m),
             ("motion_tolerance", self.motion_tolerance),
             ("rotation_tolerance_rad", self.rotation_tolerance_rad),
             ("translation_tolerance_m", self.translation_tolerance_m),
-        ];
-        for (f, v) in positive {
-            if !pos(v) {
-                return bad(f, "must be a finite number > 0", v);
-            }
+        ] {
+            crate::config::positive(format!("{prefix}.{f}"), v)?;
         }
         if !(self.gate_shrink > 0.0 && self.gate_shrink <= 1.0) {
             return bad("gate_shrink", "must be in (0, 1]", self.gate_shrink);

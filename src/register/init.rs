@@ -158,11 +158,7 @@ impl InitConfig {
                 self.score_fraction, self.gate_fraction
             ),
         )?;
-        require(
-            self.span_tolerance >= 0.0 && self.span_tolerance.is_finite(),
-            key("span_tolerance"),
-            format!("must be a finite number ≥ 0, got {}", self.span_tolerance),
-        )
+        crate::config::non_negative(key("span_tolerance"), self.span_tolerance)
     }
 }
 

@@ -51,12 +51,7 @@ impl ClusterConfig {
     /// # Errors
     /// [`Error::Input`] naming the field (`cluster.…`).
     pub fn validate(&self) -> Result<()> {
-        if !(self.tolerance_m > 0.0 && self.tolerance_m.is_finite()) {
-            return Err(Error::input(
-                "cluster.tolerance_m",
-                format!("must be a finite number > 0, got {}", self.tolerance_m),
-            ));
-        }
+        crate::config::positive("cluster.tolerance_m", self.tolerance_m)?;
         if self.min_points == 0 || self.min_points > self.max_points {
             return Err(Error::input(
                 "cluster.min_points",

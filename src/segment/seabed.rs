@@ -21,7 +21,7 @@
 //! signed distances, positive on the camera's side. Units: metres.
 
 use crate::cloud::pca::{mean_covariance_of, median, sorted_eigen};
-use crate::config::count_between;
+use crate::config::{count_between, positive};
 use crate::error::{Error, Result};
 use nalgebra::{Point3, Vector3};
 use rand::rngs::ChaCha8Rng;
@@ -517,20 +517,10 @@ impl SeabedConfig {
                 ),
             );
         }
-        if self.threshold_m == 0.0
-            && !(self.initial_threshold_m > 0.0 && self.initial_threshold_m.is_finite())
-        {
-            return bad(
-                "initial_threshold_m",
-                format!("must be a finite number > 0, got {}", self.initial_threshold_m),
-            );
+        if self.threshold_m == 0.0 {
+            positive("seabed.initial_threshold_m", self.initial_threshold_m)?;
         }
-        if !(self.max_threshold_m > 0.0 && self.max_threshold_m.is_finite()) {
-            return bad(
-                "max_threshold_m",
-                format!("must be a finite number > 0, got {}", self.max_threshold_m),
-            );
-        }
+        positive("seabed.max_threshold_m", self.max_threshold_m)?;
         if !(self.min_threshold_m > 0.0 && self.min_threshold_m <= self.max_threshold_m) {
             return bad(
                 "min_threshold_m",
@@ -540,12 +530,7 @@ impl SeabedConfig {
                 ),
             );
         }
-        if !(self.noise_sigmas > 0.0 && self.noise_sigmas.is_finite()) {
-            return bad(
-                "noise_sigmas",
-                format!("must be a finite number > 0, got {}", self.noise_sigmas),
-            );
-        }
+        positive("seabed.noise_sigmas", self.noise_sigmas)?;
         if !(self.confidence > 0.0 && self.confidence < 1.0) {
             return bad(
                 "confidence",

@@ -108,10 +108,7 @@ impl HoverConfig {
         }
         // The coarse grid's candidates: positions across, heights, headings.
         let across = 2.0 * (self.horizontal_range_m / self.step_m).floor() + 1.0;
-        let candidates = across
-            * across
-            * (((hi - lo) / self.step_m).floor() + 1.0)
-            * (360.0 / self.yaw_step_deg).round().max(1.0);
+        let candidates = across * across * (((hi - lo) / self.step_m).floor() + 1.0) * self.headings() as f64;
         if candidates.is_nan() || candidates > MAX_CANDIDATES {
             return Err(Error::input(
                 "sim.hover",
@@ -121,6 +118,11 @@ impl HoverConfig {
             ));
         }
         Ok(())
+    }
+
+    /// Headings of the coarse search: every `yaw_step_deg` around.
+    fn headings(&self) -> i64 {
+        (360.0 / self.yaw_step_deg).round().max(1.0) as i64
     }
 }
 
@@ -335,7 +337,7 @@ pub fn choose(arm: &Arm, thrusters: &Thrusters, trajectory: &Trajectory, cfg: &H
             let k = ((hi - lo) / step).floor() as i64;
             (0..=k).map(move |i| lo + i as f64 * step)
         };
-        let yaws: Vec<f64> = (0..(360.0 / cfg.yaw_step_deg).round().max(1.0) as i64)
+        let yaws: Vec<f64> = (0..cfg.headings())
             .map(|i| (i as f64 * cfg.yaw_step_deg).to_radians())
             .collect();
         for &yaw in &yaws {
