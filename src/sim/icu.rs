@@ -61,7 +61,10 @@
 //! `q4 = 0`. [`ForceMethod::Seed`] solves the chosen 3 × 3 system `A F = m` (`A`'s rows the
 //! chosen `J_v,iᵀ`) — eq. (12) is its closed-form solution in the seed's configuration.
 //! [`ForceMethod::LeastSquares`] (the default) uses all six equations,
-//! `(J_v J_vᵀ) F = J_v M_ez`, a 3 × 3 solve. Neither inverts the Jacobian.
+//! `(J_v W J_vᵀ) F = J_v W M_ez`, a 3 × 3 solve, weighted by the inverse `W` of the noise the
+//! drive equation leaves in `M_ez` (`acceleration = "observer"`; equal weights otherwise), which
+//! takes the force mostly from the quiet wrist joints. Neither inverts the Jacobian. From the
+//! touch on, the identified moments are the identified force's, `J_vᵀ F` (`point_contact`).
 
 use super::sensors::{Measurements, SensorConfig};
 use crate::arm::dynamics::{BaseMotion, VelocityTerms};
@@ -78,7 +81,8 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum ForceMethod {
-    /// Least squares on all six joints: `(J_v J_vᵀ) F = J_v M_ez`.
+    /// Least squares on all six joints, `(J_v W J_vᵀ) F = J_v W M_ez`, weighted by the inverse
+    /// of `M_ez`'s noise (`acceleration = "observer"`; equal weights otherwise).
     #[default]
     LeastSquares,
     /// The seed's choice of three joints (eq. 3–12 and its switching rules), a 3 × 3 solve.
