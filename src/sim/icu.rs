@@ -704,11 +704,11 @@ impl Inertia {
     /// arm is on a vehicle.
     ///
     /// The weights: the drive equation gives `q̈` with the torque sensors' noise `n` as
-    /// `−I_a⁻¹ n`, and the IDP turns that into `(H − I_a) I_a⁻¹ n` in `M_wz` (`H` the inertia
+    /// `−I_a⁻¹ n`, and the IDP turns that into `−(H − I_a) I_a⁻¹ n` in `M_wz` (`H` the inertia
     /// with the rotors, `H − I_a` the links' part, the vehicle's reaction included), so
-    /// `M_ez = M_dz − M_wz` carries `T n` with `T = H I_a⁻¹`: on the shoulder of an arm on a
-    /// vehicle some seven times the sensor's own noise, on the wrist little more than it. With
-    /// `n` white and alike on every joint, the covariance is `σ² T Tᵀ` and its inverse
+    /// `M_ez = M_dz − M_wz` carries `T n` with `T = H I_a⁻¹`: on the shoulder several times the
+    /// sensor's own noise, on the wrist little more than it. With `n` white and alike on every
+    /// joint, the covariance is `σ² T Tᵀ` and its inverse
     /// `σ⁻² H⁻¹ I_a² H⁻¹`: the weights of the force's maximum-likelihood estimate, which takes
     /// the force mostly from the quiet joints.
     fn new(arm: &Arm, system: Option<&Multibody>, q: &JointVector) -> Self {
