@@ -11,6 +11,7 @@ use parry3d_f64::partitioning::BvhNode;
 use parry3d_f64::query::{PointProjection, PointQuery, PointQueryWithLocation, Ray, RayCast};
 use parry3d_f64::shape::TrianglePointLocation;
 use parry3d_f64::shape::{TriMesh, TriMeshFlags};
+use std::collections::{HashMap, HashSet};
 
 /// A triangle mesh prepared for queries (a BVH over its triangles).
 pub struct Surface {
@@ -18,6 +19,9 @@ pub struct Surface {
     /// Per vertex, the area-weighted mean of the adjacent triangles' unit normals
     /// ([`TriangleMesh::vertex_normals`]), for [`Surface::shaded_normal`].
     vertex_normals: Vec<Vector3<f64>>,
+    /// The rim of an open mesh: the edges of one triangle only (vertex pairs, the lower index
+    /// first), for [`Surface::on_rim`].
+    rim: HashSet<(u32, u32)>,
 }
 
 /// Where a ray meets the surface.
@@ -118,10 +122,48 @@ impl Surface {
         let verts = mesh.vertices.iter().map(g).collect();
         let tri = TriMesh::with_flags(verts, mesh.triangles.clone(), TriMeshFlags::empty())
             .map_err(|e| Error::input("surface", format!("{e:?}")))?;
+        let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+        for t in tri.indices() {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        let rim = edges
+            .into_iter()
+            .filter(|&(_, n)| n == 1)
+            .map(|(e, _)| e)
+            .collect();
         Ok(Surface {
             mesh: tri,
             vertex_normals: mesh.vertex_normals(),
+            rim,
         })
+    }
+
+    /// Whether a projection's point lies on the rim of an open mesh (an edge of one triangle
+    /// only, or a vertex of such an edge): a point beyond the rim is closest to it, and there is
+    /// no surface, nor material behind it, out there.
+    pub fn on_rim(&self, p: &Projection) -> bool {
+        let Some(idx) = self.mesh.indices().get(p.triangle) else {
+            return false;
+        };
+        let w = p.barycentric;
+        let rim = |a: usize, b: usize| {
+            let (a, b) = (idx[a], idx[b]);
+            self.rim.contains(&(a.min(b), a.max(b)))
+        };
+        match (w[0] == 0.0, w[1] == 0.0, w[2] == 0.0) {
+            // On the edge opposite the vertex whose weight is zero.
+            (true, false, false) => rim(1, 2),
+            (false, true, false) => rim(2, 0),
+            (false, false, true) => rim(0, 1),
+            // On a vertex: one of the rim's if either of its two edges here is.
+            (false, true, true) => rim(0, 1) || rim(2, 0),
+            (true, false, true) => rim(0, 1) || rim(1, 2),
+            (true, true, false) => rim(1, 2) || rim(2, 0),
+            _ => false,
+        }
     }
 
     /// Number of triangles.

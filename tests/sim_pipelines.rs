@@ -504,3 +504,54 @@ fn endless_runs_and_clashing_outputs_are_refused_before_writing() {
     assert_eq!(left, ["config.toml", "summary.json"]);
     assert_eq!(std::fs::read_to_string(again.join("summary.json")).unwrap(), "{}");
 }
+
+/// A contact operation whose tool never touches the surface is a failed run (exit 1, one line
+/// naming it), its products written whole: the bottle's trajectory from its dwell to half a
+/// second into the path, against one triangle 100 m away (off the trajectory: beyond its rim,
+/// no material, no contact). The same trajectory on the bottle's own surface touches and
+/// exits 0.
+#[test]
+fn a_contact_operation_that_never_touches_is_a_failed_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, _) = bottle_run();
+    let text = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    let mut header = true;
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| {
+            if l.starts_with('#') || std::mem::take(&mut header) {
+                return true;
+            }
+            let f: Vec<&str> = l.split(',').collect();
+            matches!(f[12], "dwell" | "contact") && f[0].parse::<f64>().unwrap() <= 11.5
+        })
+        .collect();
+    let short = dir.path().join("short.csv");
+    std::fs::write(&short, kept.join("\n") + "\n").unwrap();
+    let far = dir.path().join("far.ply");
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n100 0 0\n100 1 0\n101 0 0\n3 0 1 2\n";
+    std::fs::write(&far, ply).unwrap();
+    let sim = |surface: &Path, out: &Path| {
+        run(&[
+            "--quiet",
+            "sim",
+            "--trajectory",
+            short.to_str().unwrap(),
+            "--surface",
+            surface.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let missed = dir.path().join("missed");
+    let o = sim(&far, &missed);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.lines().count() == 1 && err.contains("never touched"), "{err}");
+    for product in ["timeseries.csv", "summary.json", "config.toml", "force.svg"] {
+        assert!(missed.join(product).is_file(), "{product} missing");
+    }
+    let touched = dir.path().join("touched");
+    let o = sim(&repo("data/scans/bottle/scene_mesh.ply"), &touched);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

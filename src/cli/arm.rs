@@ -186,6 +186,7 @@ pub fn run(args: &ArmArgs, _ctx: &Ctx) -> Result<Report> {
         summary,
         text,
         out: None,
+        failure: None,
     })
 }
 

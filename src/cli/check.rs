@@ -270,5 +270,10 @@ pub fn run(args: &CheckArgs, _ctx: &Ctx) -> Result<Report> {
         out.write_toml("config.toml", &cfg)?;
         text += &write_check_products(out, &result, &args.reference)?;
     }
-    Ok(Report { summary, text, out })
+    Ok(Report {
+        summary,
+        text,
+        out,
+        failure: None,
+    })
 }

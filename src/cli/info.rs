@@ -83,5 +83,6 @@ pub fn run(args: &InfoArgs, _ctx: &Ctx) -> Result<Report> {
         summary,
         text,
         out: None,
+        failure: None,
     })
 }

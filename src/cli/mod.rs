@@ -5,7 +5,7 @@
 //! that writes files writes them under `--out DIR`, including `summary.json` and the resolved
 //! `config.toml`.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::output::OutDir;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -69,6 +69,9 @@ pub struct Report {
     pub text: String,
     /// Where the command wrote its products, if anywhere; `summary.json` is added there.
     pub out: Option<OutDir>,
+    /// Why the run failed although its products are whole (written, then exit 1): a contact
+    /// operation that never touched the surface.
+    pub failure: Option<Error>,
 }
 
 /// Flags every command sees.
@@ -130,5 +133,5 @@ pub fn execute(cli: Cli) -> Result<()> {
     if ctx.json {
         println!("{}", report.summary);
     }
-    Ok(())
+    report.failure.map_or(Ok(()), Err)
 }

@@ -180,6 +180,7 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
         summary,
         text: stage.text,
         out: Some(out),
+        failure: None,
     })
 }
 

@@ -126,10 +126,10 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     stages.inc(1);
     text += &planned.text;
     let sim_started = Instant::now();
-    let (sim, sim_text) = sim_stage(&planned.trajectory, &sim_inputs, &p.sim, &out, ctx)?;
+    let stage = sim_stage(&planned.trajectory, &sim_inputs, &p.sim, &out, ctx)?;
     let sim_s = sim_started.elapsed().as_secs_f64();
     stages.finish_and_clear();
-    text += &sim_text;
+    text += &stage.text;
     out.write_toml("config.toml", &p)?;
     let _ = writeln!(
         text,
@@ -140,12 +140,13 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
         "pipeline": args.pipeline.display().to_string(),
         "check": planned.check,
         "plan": planned.plan,
-        "sim": sim,
+        "sim": stage.summary,
         "timings_s": {"segment_check_plan": plan_s, "hover_sim": sim_s, "total": plan_s + sim_s},
     });
     Ok(Report {
         summary,
         text,
         out: Some(out),
+        failure: stage.failure,
     })
 }

@@ -259,6 +259,7 @@ pub fn run(args: &SegmentArgs, _ctx: &Ctx) -> Result<Report> {
         summary,
         text,
         out: Some(out),
+        failure: None,
     })
 }
 

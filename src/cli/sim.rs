@@ -19,7 +19,7 @@ use crate::output::OutDir;
 use crate::plot::{to_png, to_svg};
 use crate::sim::record::{figures, write_csv};
 use crate::sim::{SimConfig, SimSummary, SurfaceFrame, check_plant_model, simulate};
-use crate::trajectory::Trajectory;
+use crate::trajectory::{Phase, Trajectory};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -170,8 +170,18 @@ pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs
     Ok(SimInputs { mesh, model })
 }
 
-/// Simulates on `inputs` (see [`load_sim_inputs`]), writes the products into `out`; the
-/// summary (as JSON) and the readable account.
+/// What [`sim_stage`] gives: the summary (as JSON), the readable account, and why the contact
+/// operation failed although the products are written (see [`untouched`]).
+pub struct SimStage {
+    /// The simulation's summary.
+    pub summary: serde_json::Value,
+    /// Its readable account.
+    pub text: String,
+    /// Why the contact operation failed.
+    pub failure: Option<Error>,
+}
+
+/// Simulates on `inputs` (see [`load_sim_inputs`]) and writes the products into `out`.
 ///
 /// # Errors
 /// [`Error::Input`] for a bad trajectory or configuration; [`Error::Failed`] when the hover
@@ -182,7 +192,7 @@ pub fn sim_stage(
     cfg: &SimConfig,
     out: &OutDir,
     ctx: &Ctx,
-) -> Result<(serde_json::Value, String)> {
+) -> Result<SimStage> {
     let bar = ctx.progress(1000, "sim");
     let result = simulate(trajectory, &inputs.mesh, &inputs.model, cfg, &mut |f| {
         bar.set_position((f * 1000.0) as u64)
@@ -201,7 +211,31 @@ pub fn sim_stage(
         "wrote        timeseries.csv, joint_moments/force/deviations/joints .svg and .png in {}",
         out.path().display()
     );
-    Ok((summary, text))
+    Ok(SimStage {
+        summary,
+        text,
+        failure: untouched(trajectory, run.summary.figures.first_contact_s, cfg),
+    })
+}
+
+/// A failed run when the trajectory has a contact phase and the tool never touched the surface
+/// (a surface that is not the one the trajectory was planned on, or in another frame): the
+/// figures of such a run describe no contact operation.
+fn untouched(trajectory: &Trajectory, first_contact_s: Option<f64>, cfg: &SimConfig) -> Option<Error> {
+    let contact = || trajectory.samples.iter().filter(|s| s.phase == Phase::Contact);
+    let (from, to) = (contact().next()?.t, contact().next_back()?.t);
+    first_contact_s.is_none().then(|| {
+        let frame = match cfg.surface_frame {
+            SurfaceFrame::Scan => "scan",
+            SurfaceFrame::World => "world",
+        };
+        Error::failed(
+            "sim",
+            format!(
+                "the tool never touched the surface, though the trajectory's contact phase runs from {from:.2} to {to:.2} s (the products are written): is sim.surface (in the {frame} frame, sim.surface_frame) the surface the trajectory was planned on?"
+            ),
+        )
+    })
 }
 
 /// Runs `uvms sim`.
@@ -221,11 +255,12 @@ pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
     inputs.extend(cfg.sim.model.as_deref());
     inputs.extend(args.config.as_deref());
     let out = OutDir::create(&args.out, &inputs, &PRODUCTS)?;
-    let (summary, text) = sim_stage(&trajectory, &sim_inputs, &cfg.sim, &out, ctx)?;
+    let stage = sim_stage(&trajectory, &sim_inputs, &cfg.sim, &out, ctx)?;
     out.write_toml("config.toml", &cfg)?;
     Ok(Report {
-        summary,
-        text,
+        summary: stage.summary,
+        text: stage.text,
         out: Some(out),
+        failure: stage.failure,
     })
 }

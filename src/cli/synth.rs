@@ -98,5 +98,6 @@ pub fn run(args: &SynthArgs, _ctx: &Ctx) -> Result<Report> {
         summary: s.summary(),
         text,
         out: Some(out),
+        failure: None,
     })
 }
