@@ -71,7 +71,7 @@ impl AccuracyConfig {
         if !(0.0..0.5).contains(&self.inset) {
             return Err(Error::input(
                 "accuracy.inset",
-                format!("must be in [0, 0.5), got {}", self.inset),
+                format!("must be in [0, 0.5), got {}", crate::config::shown(self.inset)),
             ));
         }
         Ok(())

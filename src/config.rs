@@ -87,10 +87,26 @@ pub fn load<T: DeserializeOwned + Serialize + Default>(path: Option<&Path>) -> R
     match path {
         None => Ok(T::default()),
         Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .map_err(|e| Error::input(p.display(), format!("cannot read: {e}")))?;
+            let text = std::fs::read_to_string(p).map_err(|e| {
+                let why = if e.kind() == std::io::ErrorKind::InvalidData {
+                    "not a TOML file (not UTF-8 text: a PLY or other binary file?)".to_string()
+                } else {
+                    format!("cannot read: {e}")
+                };
+                Error::input(p.display(), why)
+            })?;
             from_toml_str(&text, &p.display().to_string())
         }
+    }
+}
+
+/// A value for a message: as written for everyday magnitudes, in exponent form beyond them
+/// (`1e300`, not three hundred digits).
+pub fn shown(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
     }
 }
 
@@ -102,7 +118,7 @@ pub fn positive(what: impl std::fmt::Display, v: f64) -> Result<()> {
     require(
         v.is_finite() && v > 0.0,
         what,
-        format!("must be a finite number > 0, got {v}"),
+        format!("must be a finite number > 0, got {}", shown(v)),
     )
 }
 
@@ -114,7 +130,7 @@ pub fn non_negative(what: impl std::fmt::Display, v: f64) -> Result<()> {
     require(
         v.is_finite() && v >= 0.0,
         what,
-        format!("must be a finite number ≥ 0, got {v}"),
+        format!("must be a finite number ≥ 0, got {}", shown(v)),
     )
 }
 
@@ -205,6 +221,34 @@ mod tests {
         )
         .unwrap();
         assert_eq!((d.inner.xyz_m, d.rows.len()), ([1.0, 2.0, 3.0], 2));
+    }
+
+    /// A binary file given for a configuration (a PLY as `sim.model`) says what it is not,
+    /// not the reader's "stream did not contain valid UTF-8".
+    #[test]
+    fn a_binary_file_is_not_a_toml_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("model.ply");
+        std::fs::write(&p, b"ply\nformat binary_little_endian 1.0\n\xff\xfe\x00\x80").unwrap();
+        let err = load::<Demo>(Some(&p)).unwrap_err();
+        let msg = err.to_string();
+        assert_eq!(err.exit_code(), 2);
+        assert!(
+            msg.contains("model.ply") && msg.contains("not a TOML file"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn huge_and_tiny_values_are_shown_in_exponent_form() {
+        assert_eq!(shown(-1e300), "-1e300");
+        assert_eq!(shown(2.5e-9), "2.5e-9");
+        assert_eq!(
+            (shown(0.0), shown(3600.5), shown(f64::NAN)),
+            ("0".into(), "3600.5".into(), "NaN".into())
+        );
+        let msg = non_negative("k", -1e300).unwrap_err().to_string();
+        assert!(msg.ends_with("got -1e300"), "{msg}");
     }
 
     #[test]

@@ -107,7 +107,9 @@ fn check_camera(camera: &Point3<f64>) -> Result<()> {
         "view.camera_m",
         format!(
             "must be three finite coordinates within ±{MAX_COORDINATE_M} m, got [{}, {}, {}]",
-            camera.x, camera.y, camera.z
+            crate::config::shown(camera.x),
+            crate::config::shown(camera.y),
+            crate::config::shown(camera.z)
         ),
     )
 }
@@ -125,7 +127,8 @@ impl CleanConfig {
             "clean.max_range_m",
             format!(
                 "must exceed clean.min_range_m ({}) or be 0 for no limit, got {}",
-                self.min_range_m, self.max_range_m
+                crate::config::shown(self.min_range_m),
+                crate::config::shown(self.max_range_m)
             ),
         )?;
         non_negative("clean.voxel_m", self.voxel_m)?;

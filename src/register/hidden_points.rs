@@ -49,7 +49,7 @@ impl HiddenPointConfig {
             format!(
                 "must be > 1 and at most {MAX_RADIUS_FACTOR} (the flipping sphere's radius over the \
                  farthest point's distance), got {}",
-                self.radius_factor
+                crate::config::shown(self.radius_factor)
             ),
         )
     }

@@ -131,7 +131,10 @@ impl IcpConfig {
     /// [`Error::Input`] naming the field (under `prefix`, e.g. `register.icp`).
     pub fn validate(&self, prefix: &str) -> Result<()> {
         let bad = |f: &str, why: &str, v: f64| {
-            Err(Error::input(format!("{prefix}.{f}"), format!("{why}, got {v}")))
+            Err(Error::input(
+                format!("{prefix}.{f}"),
+                format!("{why}, got {}", crate::config::shown(v)),
+            ))
         };
         crate::config::count_between(
             format!("{prefix}.max_iterations"),

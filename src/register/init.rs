@@ -136,7 +136,10 @@ impl InitConfig {
         require(
             self.refine_within >= 1.0 && self.refine_within.is_finite(),
             key("refine_within"),
-            format!("must be a finite number ≥ 1, got {}", self.refine_within),
+            format!(
+                "must be a finite number ≥ 1, got {}",
+                crate::config::shown(self.refine_within)
+            ),
         )?;
         for (f, v) in [
             ("gate_fraction", self.gate_fraction),
@@ -145,7 +148,10 @@ impl InitConfig {
             require(
                 v > 0.0 && v <= 1.0,
                 key(f),
-                format!("must be in (0, 1] (a fraction of the model's largest span), got {v}"),
+                format!(
+                    "must be in (0, 1] (a fraction of the model's largest span), got {}",
+                    crate::config::shown(v)
+                ),
             )?;
         }
         // (The relative margin takes the product's rounding: 0.1 × 0.05 is 0.005000000000000001.)
@@ -155,7 +161,8 @@ impl InitConfig {
             format!(
                 "must be at least {NOISE_FLOOR} × register.init.score_fraction ({}): the gate cannot \
                  be narrower than the score's noise floor, got {}",
-                self.score_fraction, self.gate_fraction
+                crate::config::shown(self.score_fraction),
+                crate::config::shown(self.gate_fraction)
             ),
         )?;
         crate::config::non_negative(key("span_tolerance"), self.span_tolerance)

@@ -219,7 +219,10 @@ impl RegisterConfig {
         require(
             (0.0..=1.0).contains(&self.min_fitness),
             "register.min_fitness",
-            format!("must be a fraction in [0, 1], got {}", self.min_fitness),
+            format!(
+                "must be a fraction in [0, 1], got {}",
+                crate::config::shown(self.min_fitness)
+            ),
         )
     }
 }

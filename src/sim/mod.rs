@@ -36,7 +36,7 @@ pub mod vehicle_control;
 
 use crate::arm::JointVector;
 use crate::arm::dynamics::BaseMotion;
-use crate::config::{non_negative, positive};
+use crate::config::{non_negative, positive, shown};
 use crate::error::{Error, Result};
 use crate::integrate::Integrator;
 use crate::mesh::TriangleMesh;
@@ -286,7 +286,7 @@ impl SimConfig {
         if self.control_rate_hz > 100_000.0 {
             return Err(Error::input(
                 "sim.control_rate_hz",
-                format!("must be at most 100000 Hz, got {}", self.control_rate_hz),
+                format!("must be at most 100000 Hz, got {}", shown(self.control_rate_hz)),
             ));
         }
         positive("sim.log_rate_hz", self.log_rate_hz)?;

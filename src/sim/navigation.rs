@@ -51,7 +51,7 @@
 //!   pass as through a lag of about `correction_s`.
 
 use super::sensors::{Measurements, SensorConfig};
-use crate::config::{non_negative, positive};
+use crate::config::{non_negative, positive, shown};
 use crate::error::{Error, Result};
 use crate::integrate::lag_gain;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
@@ -97,7 +97,7 @@ impl NavigationConfig {
         if self.levelling_s > 3600.0 {
             return Err(Error::input(
                 "sim.navigation.levelling_s",
-                format!("must be at most 3600 s, got {}", self.levelling_s),
+                format!("must be at most 3600 s, got {}", shown(self.levelling_s)),
             ));
         }
         non_negative("sim.navigation.correction_s", self.correction_s)?;
