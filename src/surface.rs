@@ -20,8 +20,9 @@ pub struct Surface {
     /// ([`TriangleMesh::vertex_normals`]), for [`Surface::shaded_normal`].
     vertex_normals: Vec<Vector3<f64>>,
     /// The rim of an open mesh: the edges of one triangle only (vertex pairs, the lower index
-    /// first), for [`Surface::on_rim`].
+    /// first), and whether each vertex is on one, for [`Surface::on_rim`].
     rim: HashSet<(u32, u32)>,
+    rim_vertices: Vec<bool>,
 }
 
 /// Where a ray meets the surface.
@@ -129,15 +130,21 @@ impl Surface {
                 *edges.entry((a.min(b), a.max(b))).or_default() += 1;
             }
         }
-        let rim = edges
+        let rim: HashSet<(u32, u32)> = edges
             .into_iter()
             .filter(|&(_, n)| n == 1)
             .map(|(e, _)| e)
             .collect();
+        let mut rim_vertices = vec![false; n];
+        for &(a, b) in &rim {
+            rim_vertices[a as usize] = true;
+            rim_vertices[b as usize] = true;
+        }
         Ok(Surface {
             mesh: tri,
             vertex_normals: mesh.vertex_normals(),
             rim,
+            rim_vertices,
         })
     }
 
@@ -153,15 +160,16 @@ impl Surface {
             let (a, b) = (idx[a], idx[b]);
             self.rim.contains(&(a.min(b), a.max(b)))
         };
+        // On a vertex: one of the rim's, whichever triangle of its fan the point was found on.
+        let rim_vertex = |a: usize| self.rim_vertices.get(idx[a] as usize).copied().unwrap_or(false);
         match (w[0] == 0.0, w[1] == 0.0, w[2] == 0.0) {
             // On the edge opposite the vertex whose weight is zero.
             (true, false, false) => rim(1, 2),
             (false, true, false) => rim(2, 0),
             (false, false, true) => rim(0, 1),
-            // On a vertex: one of the rim's if either of its two edges here is.
-            (false, true, true) => rim(0, 1) || rim(2, 0),
-            (true, false, true) => rim(0, 1) || rim(1, 2),
-            (true, true, false) => rim(1, 2) || rim(2, 0),
+            (false, true, true) => rim_vertex(0),
+            (true, false, true) => rim_vertex(1),
+            (true, true, false) => rim_vertex(2),
             _ => false,
         }
     }
@@ -387,6 +395,46 @@ pub fn convex_hull_vertices(points: &[Point3<f64>]) -> Option<Vec<usize>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The rim of an open mesh: a fan of three triangles around the vertex 0 at the middle of
+    /// a half-disc's straight side. A point on the straight side, its ends or the arc, or at the
+    /// fan's centre whichever triangle it is found on (the middle one's two edges there are
+    /// inside the fan), is on the rim; a point on an inner edge or inside a triangle is not;
+    /// a closed cube has no rim.
+    #[test]
+    fn the_rim_is_the_edges_of_one_triangle_and_their_vertices() {
+        let fan = TriangleMesh {
+            vertices: vec![
+                Point3::new(0.0, 0.0, 0.0),
+                Point3::new(1.0, 0.0, 0.0),
+                Point3::new(0.5, 1.0, 0.0),
+                Point3::new(-0.5, 1.0, 0.0),
+                Point3::new(-1.0, 0.0, 0.0),
+            ],
+            triangles: vec![[0, 1, 2], [0, 2, 3], [0, 3, 4]],
+        };
+        let s = Surface::new(&fan).unwrap();
+        let at = |triangle: usize, barycentric: [f64; 3]| Projection {
+            point: Point3::origin(),
+            distance: 0.0,
+            triangle,
+            barycentric,
+            normal: Vector3::z(),
+        };
+        for (t, w) in [
+            (1, [1.0, 0.0, 0.0]),
+            (0, [0.5, 0.5, 0.0]),
+            (2, [0.0, 0.0, 1.0]),
+            (0, [0.0, 0.5, 0.5]),
+        ] {
+            assert!(s.on_rim(&at(t, w)), "triangle {t} at {w:?}");
+        }
+        for (t, w) in [(1, [0.5, 0.5, 0.0]), (1, [0.2, 0.3, 0.5])] {
+            assert!(!s.on_rim(&at(t, w)), "triangle {t} at {w:?}");
+        }
+        let cube = Surface::new(&cube()).unwrap();
+        assert!(!cube.on_rim(&at(0, [1.0, 0.0, 0.0])));
+    }
 
     /// A unit cube [0,1]³ with outward, counter-clockwise triangles.
     pub(crate) fn cube() -> TriangleMesh {
