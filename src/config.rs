@@ -87,17 +87,27 @@ pub fn load<T: DeserializeOwned + Serialize + Default>(path: Option<&Path>) -> R
     match path {
         None => Ok(T::default()),
         Some(p) => {
-            let text = std::fs::read_to_string(p).map_err(|e| {
-                let why = if e.kind() == std::io::ErrorKind::InvalidData {
-                    "not a TOML file (not UTF-8 text: a PLY or other binary file?)".to_string()
-                } else {
-                    format!("cannot read: {e}")
-                };
-                Error::input(p.display(), why)
-            })?;
+            let text = read_text(p, "a TOML file")?;
             from_toml_str(&text, &p.display().to_string())
         }
     }
+}
+
+/// A text file's contents.
+///
+/// # Errors
+/// [`Error::Input`] naming the file: unreadable, or not UTF-8 text, then `not {what}` (a PLY or
+/// other binary file given for a configuration, a trajectory, a pose), not the reader's
+/// "stream did not contain valid UTF-8".
+pub fn read_text(path: &Path, what: &str) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|e| {
+        let why = if e.kind() == std::io::ErrorKind::InvalidData {
+            format!("not {what} (not UTF-8 text: a PLY or other binary file?)")
+        } else {
+            format!("cannot read: {e}")
+        };
+        Error::input(path.display(), why)
+    })
 }
 
 /// A value for a message: as written for everyday magnitudes, in exponent form beyond them

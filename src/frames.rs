@@ -53,8 +53,7 @@ pub fn pose_from_rows(rows: &[[f64; 4]; 4], what: &str) -> Result<Pose> {
 /// # Errors
 /// [`Error::Input`] naming the file and key if it is missing, unreadable or not a rigid transform.
 pub fn read_pose_file(path: &std::path::Path, key: &str) -> Result<Pose> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::input(path.display(), format!("cannot read: {e}")))?;
+    let text = crate::config::read_text(path, "a JSON pose file")?;
     let v: serde_json::Value =
         serde_json::from_str(&text).map_err(|e| Error::input(path.display(), format!("not JSON: {e}")))?;
     let what = format!("{} key {key}", path.display());

@@ -224,8 +224,7 @@ impl Trajectory {
     /// strictly increasing or negative, a quaternion or `k` that is not unit length, a negative
     /// force, an unknown phase, a fallback flag other than 0 or 1, no samples.
     pub fn read_csv(path: &Path) -> Result<Trajectory> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| Error::input(path.display(), format!("cannot read: {e}")))?;
+        let text = crate::config::read_text(path, "a trajectory CSV file")?;
         Self::from_csv_str(&text, &path.display().to_string())
     }
 

@@ -851,8 +851,7 @@ pub fn line(ctx: &Context, cfg: &LineConfig) -> Result<PatternPath> {
 /// [`Error::Input`] naming the file, line and column of the first problem, or fewer than two
 /// points.
 pub fn read_polyline(path: &Path) -> Result<Vec<(Point3<f64>, Option<f64>)>> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::input(path.display(), format!("cannot read: {e}")))?;
+    let text = crate::config::read_text(path, "a path CSV file")?;
     let origin = path.display();
     let mut columns = None;
     let mut out = Vec::new();
