@@ -551,6 +551,15 @@ fn a_contact_operation_that_never_touches_is_a_failed_run() {
     for product in ["timeseries.csv", "summary.json", "config.toml", "force.svg"] {
         assert!(missed.join(product).is_file(), "{product} missing");
     }
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(missed.join("summary.json")).unwrap()).unwrap();
+    assert!(
+        summary["failure"]
+            .as_str()
+            .is_some_and(|f| f.contains("never touched"))
+            && summary["first_contact_s"].is_null(),
+        "{summary}"
+    );
     let touched = dir.path().join("touched");
     let o = sim(&repo("data/scans/bottle/scene_mesh.ply"), &touched);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

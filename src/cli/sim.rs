@@ -204,7 +204,12 @@ pub fn sim_stage(
         out.write_bytes(&format!("{name}.svg"), to_svg(&fig, 1200, 900).as_bytes())?;
         out.write_bytes(&format!("{name}.png"), &to_png(&fig, 1200, 900))?;
     }
-    let summary = serde_json::to_value(&run.summary).map_err(|e| Error::failed("summary", e))?;
+    let mut summary = serde_json::to_value(&run.summary).map_err(|e| Error::failed("summary", e))?;
+    let failure = untouched(trajectory, run.summary.figures.first_contact_s, cfg);
+    if let (Some(e), Some(map)) = (&failure, summary.as_object_mut()) {
+        // The summary says it too: a script reading it sees the failure, not just figures.
+        map.insert("failure".into(), e.to_string().into());
+    }
     let mut text = sim_text(&run.summary);
     let _ = writeln!(
         text,
@@ -214,7 +219,7 @@ pub fn sim_stage(
     Ok(SimStage {
         summary,
         text,
-        failure: untouched(trajectory, run.summary.figures.first_contact_s, cfg),
+        failure,
     })
 }
 
