@@ -74,12 +74,11 @@ impl TimingConfig {
         non_negative("timing.dwell_s", self.dwell_s)?;
         non_negative("timing.force_ramp_s", self.force_ramp_s)?;
         non_negative("timing.accel_s", self.accel_s)?;
-        if self.accel_s > 3600.0 {
-            return Err(Error::input(
-                "timing.accel_s",
-                format!("must be at most an hour, 3600 s, got {:e}", self.accel_s),
-            ));
-        }
+        crate::config::require(
+            self.accel_s <= 3600.0,
+            "timing.accel_s",
+            format!("must be at most an hour, 3600 s, got {:e}", self.accel_s),
+        )?;
         if self.force_ramp_s > self.dwell_s {
             return Err(Error::input(
                 "timing.force_ramp_s",

@@ -103,9 +103,7 @@ impl HoverConfig {
         {
             return Err(Error::input("sim.hover.position_m", "must be finite"));
         }
-        if !self.yaw_deg.is_finite() {
-            return Err(Error::input("sim.hover.yaw_deg", "must be finite"));
-        }
+        crate::config::require(self.yaw_deg.is_finite(), "sim.hover.yaw_deg", "must be finite")?;
         // The coarse grid's candidates: positions across, heights, headings.
         let across = 2.0 * (self.horizontal_range_m / self.step_m).floor() + 1.0;
         let candidates = across * across * (((hi - lo) / self.step_m).floor() + 1.0) * self.headings() as f64;

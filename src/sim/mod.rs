@@ -36,7 +36,7 @@ pub mod vehicle_control;
 
 use crate::arm::JointVector;
 use crate::arm::dynamics::BaseMotion;
-use crate::config::{non_negative, positive, shown};
+use crate::config::{non_negative, positive, require, shown};
 use crate::error::{Error, Result};
 use crate::integrate::Integrator;
 use crate::mesh::TriangleMesh;
@@ -283,12 +283,11 @@ impl SimConfig {
     /// [`Error::Input`] naming the first bad field.
     pub fn validate(&self) -> Result<()> {
         positive("sim.control_rate_hz", self.control_rate_hz)?;
-        if self.control_rate_hz > 100_000.0 {
-            return Err(Error::input(
-                "sim.control_rate_hz",
-                format!("must be at most 100000 Hz, got {}", shown(self.control_rate_hz)),
-            ));
-        }
+        require(
+            self.control_rate_hz <= 100_000.0,
+            "sim.control_rate_hz",
+            format!("must be at most 100000 Hz, got {}", shown(self.control_rate_hz)),
+        )?;
         positive("sim.log_rate_hz", self.log_rate_hz)?;
         if self.log_rate_hz > self.control_rate_hz {
             return Err(Error::input(
@@ -304,12 +303,12 @@ impl SimConfig {
             ("sim.tail_s", self.tail_s),
             ("sim.dwell.max_wait_s", self.dwell.max_wait_s),
         ] {
-            if v > MAX_WAIT_S {
-                return Err(Error::input(
-                    key,
-                    format!("must be at most {MAX_WAIT_S:.0e} s, got {v:e}"),
-                ));
-            }
+            // (NaN is left to each value's own check below.)
+            require(
+                v.is_nan() || v <= MAX_WAIT_S,
+                key,
+                format!("must be at most {MAX_WAIT_S:.0e} s, got {v:e}"),
+            )?;
         }
         non_negative("sim.settle_time_s", self.settle_time_s)?;
         if !self.scenario.current_m_s.iter().all(|v| v.is_finite()) {
@@ -732,14 +731,11 @@ pub fn simulate(
 /// # Errors
 /// [`Error::Input`] naming `environment.current`.
 pub fn check_plant_model(model: &UvmsModel) -> Result<()> {
-    if model.environment.current == [0.0; 3] {
-        Ok(())
-    } else {
-        Err(Error::input(
-            "environment.current",
-            "the simulation's sea current is [sim.scenario] current_m_s; set it there and leave the model's at zero",
-        ))
-    }
+    require(
+        model.environment.current == [0.0; 3],
+        "environment.current",
+        "the simulation's sea current is [sim.scenario] current_m_s; set it there and leave the model's at zero",
+    )
 }
 
 /// The longest tail and dwell wait, s: about a day, the longest run at 1 kHz.

@@ -51,8 +51,8 @@
 //!   pass as through a lag of about `correction_s`.
 
 use super::sensors::{Measurements, SensorConfig};
-use crate::config::{non_negative, positive, shown};
-use crate::error::{Error, Result};
+use crate::config::{non_negative, positive, require, shown};
+use crate::error::Result;
 use crate::integrate::lag_gain;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
@@ -94,12 +94,11 @@ impl NavigationConfig {
     pub fn validate(&self) -> Result<()> {
         non_negative("sim.navigation.attitude_filter_s", self.attitude_filter_s)?;
         non_negative("sim.navigation.levelling_s", self.levelling_s)?;
-        if self.levelling_s > 3600.0 {
-            return Err(Error::input(
-                "sim.navigation.levelling_s",
-                format!("must be at most 3600 s, got {}", shown(self.levelling_s)),
-            ));
-        }
+        require(
+            self.levelling_s <= 3600.0,
+            "sim.navigation.levelling_s",
+            format!("must be at most 3600 s, got {}", shown(self.levelling_s)),
+        )?;
         non_negative("sim.navigation.correction_s", self.correction_s)?;
         positive(
             "sim.navigation.accelerometer_bias_walk",
