@@ -68,13 +68,11 @@ impl AccuracyConfig {
             1,
             MAX_SAMPLES_PER_LINE,
         )?;
-        if !(0.0..0.5).contains(&self.inset) {
-            return Err(Error::input(
-                "accuracy.inset",
-                format!("must be in [0, 0.5), got {}", crate::config::shown(self.inset)),
-            ));
-        }
-        Ok(())
+        crate::config::require(
+            (0.0..0.5).contains(&self.inset),
+            "accuracy.inset",
+            format!("must be in [0, 0.5), got {}", crate::config::shown(self.inset)),
+        )
     }
 }
 

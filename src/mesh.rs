@@ -72,10 +72,8 @@ impl TriangleMesh {
             return (Vec::new(), Vec::new());
         }
         let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(seed);
-        // Reserved up front only up to a million: a larger `n` grows as it goes, and fails as an
-        // allocation error, never as a capacity overflow.
-        let mut points = Vec::with_capacity(n.min(1 << 20));
-        let mut normals = Vec::with_capacity(n.min(1 << 20));
+        let mut points = Vec::with_capacity(n);
+        let mut normals = Vec::with_capacity(n);
         while points.len() < n {
             let x = rng.random::<f64>() * total;
             let t = cumulative.partition_point(|&c| c <= x).min(cumulative.len() - 1);

@@ -67,12 +67,11 @@ impl SurfaceConfig {
         crate::config::non_negative("surface.max_edge_m", self.max_edge_m)?;
         crate::config::positive("surface.edge_factor", self.edge_factor)?;
         // A normal more than 90° from the view ray is the same plane seen from behind.
-        if !(self.max_view_angle_deg > 0.0 && self.max_view_angle_deg <= 90.0) {
-            return Err(Error::input(
-                "surface.max_view_angle_deg",
-                format!("must be in (0, 90] degrees, got {}", self.max_view_angle_deg),
-            ));
-        }
+        crate::config::require(
+            self.max_view_angle_deg > 0.0 && self.max_view_angle_deg <= 90.0,
+            "surface.max_view_angle_deg",
+            format!("must be in (0, 90] degrees, got {}", self.max_view_angle_deg),
+        )?;
         crate::config::count_between(
             "surface.smoothing_neighbours",
             self.smoothing_neighbours,

@@ -651,11 +651,12 @@ impl Binary<'_> {
     /// After the last element (`last`): any byte left over is an error, but for a line break
     /// (`\n` or `\r\n`) that a writer may end the file with.
     fn finish(&self, last: Option<&Element>) -> std::result::Result<(), String> {
-        let extra = self.data.len().saturating_sub(self.pos);
-        if matches!(&self.data[self.pos..], b"" | b"\n" | b"\r\n") {
+        let rest = self.data.get(self.pos..).unwrap_or_default();
+        let extra = rest.len();
+        if matches!(rest, b"" | b"\n" | b"\r\n") {
             return Ok(());
         }
-        let shown = &self.data[self.pos..self.pos + extra.min(8)];
+        let shown = &rest[..extra.min(8)];
         let more = if extra > 8 { "..." } else { "" };
         let records = last
             .and_then(|e| Some((e, e.fixed_stride()?)))

@@ -165,12 +165,11 @@ impl IcpConfig {
         if !(self.degenerate_ratio >= 0.0 && self.degenerate_ratio < 1.0) {
             return bad("degenerate_ratio", "must be in [0, 1)", self.degenerate_ratio);
         }
-        if self.min_correspondences < 6 {
-            return Err(Error::input(
-                format!("{prefix}.min_correspondences"),
-                format!("must be ≥ 6 (six unknowns), got {}", self.min_correspondences),
-            ));
-        }
+        crate::config::require(
+            self.min_correspondences >= 6,
+            format!("{prefix}.min_correspondences"),
+            format!("must be ≥ 6 (six unknowns), got {}", self.min_correspondences),
+        )?;
         Ok(())
     }
 }

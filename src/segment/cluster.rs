@@ -52,26 +52,23 @@ impl ClusterConfig {
     /// [`Error::Input`] naming the field (`cluster.…`).
     pub fn validate(&self) -> Result<()> {
         crate::config::positive("cluster.tolerance_m", self.tolerance_m)?;
-        if self.min_points == 0 || self.min_points > self.max_points {
-            return Err(Error::input(
-                "cluster.min_points",
-                format!(
-                    "must be ≥ 1 and ≤ cluster.max_points ({}), got {}",
-                    self.max_points, self.min_points
-                ),
-            ));
-        }
+        crate::config::require(
+            self.min_points >= 1 && self.min_points <= self.max_points,
+            "cluster.min_points",
+            format!(
+                "must be ≥ 1 and ≤ cluster.max_points ({}), got {}",
+                self.max_points, self.min_points
+            ),
+        )?;
         // Spans run from the q to the 1 − q quantile: q = 0.5 leaves nothing between them.
-        if !(self.span_quantile >= 0.0 && self.span_quantile < 0.5) {
-            return Err(Error::input(
-                "cluster.span_quantile",
-                format!(
-                    "must be a quantile in [0, 0.5) (spans run from q to 1 − q), got {}",
-                    self.span_quantile
-                ),
-            ));
-        }
-        Ok(())
+        crate::config::require(
+            self.span_quantile >= 0.0 && self.span_quantile < 0.5,
+            "cluster.span_quantile",
+            format!(
+                "must be a quantile in [0, 0.5) (spans run from q to 1 − q), got {}",
+                self.span_quantile
+            ),
+        )
     }
 }
 

@@ -39,12 +39,11 @@ impl SelectConfig {
     /// # Errors
     /// [`Error::Input`] naming the field (`select.…`).
     pub fn validate(&self) -> Result<()> {
-        if !(self.max_span_ratio > 1.0 && self.max_span_ratio.is_finite()) {
-            return Err(Error::input(
-                "select.max_span_ratio",
-                format!("must be a finite number > 1, got {}", self.max_span_ratio),
-            ));
-        }
+        crate::config::require(
+            self.max_span_ratio > 1.0 && self.max_span_ratio.is_finite(),
+            "select.max_span_ratio",
+            format!("must be a finite number > 1, got {}", self.max_span_ratio),
+        )?;
         crate::config::non_negative("select.depth_weight", self.depth_weight)
     }
 }
