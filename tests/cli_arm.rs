@@ -136,3 +136,37 @@ fn unreachable_pose_is_a_failed_run() {
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("ik"));
 }
+
+#[test]
+fn id_takes_the_models_current_and_its_drag_is_quadratic() {
+    let dir = tempfile::tempdir().unwrap();
+    let still = concat!(env!("CARGO_MANIFEST_DIR"), "/data/models/auv300_puma560.toml");
+    let text = std::fs::read_to_string(still).unwrap();
+    let line = "current = [0.0, 0.0, 0.0]";
+    assert!(text.contains(line));
+    let moving = dir.path().join("current.toml");
+    std::fs::write(&moving, text.replacen(line, "current = [0.3, -0.2, 0.1]", 1)).unwrap();
+    let moving = moving.to_str().unwrap();
+    let q = ["--q", "0.3,0.9,-2.0,0.4,0.5,0.2"];
+    let tau = |model: &str, extra: &[&str]| {
+        arm_json(&[&["id", "--model", model], &q[..], extra].concat())["tau_rigid"].clone()
+    };
+    // The model's current, the arm mounted level (the model's mount rotation is the identity).
+    let by_model = tau(moving, &[]);
+    assert!(max_diff(&by_model, &tau(still, &["--current", "0.3,-0.2,0.1"])) < 1e-12);
+    assert!(max_diff(&tau(moving, &["--current", "0,0,0"]), &tau(still, &[])) < 1e-12);
+    // Gravity off and the arm at rest, what is left is the water's drag on the links, quadratic in
+    // the current (the links have no linear damping): twice the current, four times the torques.
+    let zero_g = ["--gravity", "0,0,0"];
+    let once = tau(still, &[&zero_g[..], &["--current", "0.3,-0.2,0.1"]].concat());
+    let twice = tau(still, &[&zero_g[..], &["--current", "0.6,-0.4,0.2"]].concat());
+    let largest = max_diff(&once, &serde_json::json!([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]));
+    assert!(largest > 0.05, "the current's drag is {largest} N·m at most");
+    let four_times: Vec<f64> = once
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| 4.0 * v.as_f64().unwrap())
+        .collect();
+    assert!(max_diff(&twice, &serde_json::json!(four_times)) < 1e-9 * largest.max(1.0));
+}

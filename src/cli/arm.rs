@@ -5,14 +5,15 @@
 //! Jacobian in the arm's base frame 0 (the pose of the tool frame `G`; Jacobian rows
 //! `vx vy vz wx wy wz` of the tool point). Inverse dynamics has the base at rest with gravity
 //! `--gravity` (m/s², base frame; default: the model's gravity for a level vehicle) and, with
-//! the model's water, buoyancy, added mass and drag of the links.
+//! the model's water, buoyancy, added mass and drag of the links in the water's velocity
+//! `--current` (m/s, base frame; default: the model's current for a level vehicle).
 
 use super::{Ctx, Report};
 use crate::arm::{Arm, BaseMotion, JointVector};
 use crate::error::{Error, Result};
 use crate::frames::{pose_from_rows, pose_to_rows};
 use crate::model;
-use nalgebra::{Matrix6, Vector3};
+use nalgebra::{Matrix6, UnitQuaternion, Vector3, Vector6};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -56,6 +57,10 @@ pub struct ArmArgs {
     /// Gravity in the base frame, m/s² (id; default: the model's, vehicle level).
     #[arg(long, value_name = "GX,GY,GZ", allow_hyphen_values = true, value_parser = parse_n::<3>)]
     pub gravity: Option<[f64; 3]>,
+    /// Velocity of the water in the base frame, m/s (id; default: the model's current, vehicle
+    /// level).
+    #[arg(long, value_name = "CX,CY,CZ", allow_hyphen_values = true, value_parser = parse_n::<3>)]
+    pub current: Option<[f64; 3]>,
     /// Target tool pose for ik: 16 numbers, the 4×4 base-from-tool matrix row by row.
     #[arg(long, value_name = "T11,..,T44", allow_hyphen_values = true, value_parser = parse_n::<16>)]
     pub pose: Option<[f64; 16]>,
@@ -142,12 +147,25 @@ pub fn run(args: &ArmArgs, _ctx: &Ctx) -> Result<Report> {
         ArmQuery::Id => {
             let qd = JointVector::from_column_slice(&args.qd.unwrap_or([0.0; 6]));
             let qdd = JointVector::from_column_slice(&args.qdd.unwrap_or([0.0; 6]));
-            let g = args.gravity.map_or_else(
-                || arm.level_gravity(m.environment.gravity),
-                |g| Vector3::from_column_slice(&g),
+            // The base at rest on a level vehicle in the model's water, then the flags.
+            let mut base = BaseMotion::on_vehicle(
+                &arm,
+                &UnitQuaternion::identity(),
+                &Vector6::zeros(),
+                &Vector6::zeros(),
+                m.environment.gravity,
+                &Vector3::from(m.environment.current),
             );
-            let id = arm.inverse_dynamics(&q, &qd, &qdd, &BaseMotion::fixed(g), None);
+            if let Some(g) = args.gravity {
+                base.gravity = Vector3::from(g);
+            }
+            if let Some(c) = args.current {
+                base.current = Vector3::from(c);
+            }
+            let id = arm.inverse_dynamics(&q, &qd, &qdd, &base, None);
+            let (g, c) = (base.gravity, base.current);
             summary["gravity"] = json!([g.x, g.y, g.z]);
+            summary["current"] = json!([c.x, c.y, c.z]);
             summary["tau"] = json!(id.tau.as_slice());
             summary["tau_rigid"] = json!(id.tau_rigid.as_slice());
             summary["wrench_on_base"] = json!(id.wrench_on_base.to_vector6().as_slice());
@@ -178,8 +196,8 @@ pub fn run(args: &ArmArgs, _ctx: &Ctx) -> Result<Report> {
     // A number out of range serialises as `null`.
     if has_null(&summary) {
         return Err(Error::input(
-            format!("{model_name} at --q/--qd/--qdd"),
-            "the model gives values that are not finite there (joint rates, accelerations or model values too large)",
+            format!("{model_name} at --q/--qd/--qdd/--current"),
+            "the model gives values that are not finite there (joint rates, accelerations, current or model values too large)",
         ));
     }
     Ok(Report {

@@ -201,8 +201,7 @@ struct Header {
 /// Parses the header; `bytes` is the whole file. Errors are bare reasons (the caller adds the path).
 fn parse_header(bytes: &[u8]) -> std::result::Result<Header, String> {
     let mut pos = 0usize;
-    let mut lineno = 0usize;
-    let mut next_line = |pos: &mut usize| -> Option<String> {
+    let next_line = |pos: &mut usize| -> Option<String> {
         if *pos >= bytes.len() {
             return None;
         }
@@ -213,7 +212,6 @@ fn parse_header(bytes: &[u8]) -> std::result::Result<Header, String> {
             None => (rest, rest.len()),
         };
         *pos += adv;
-        lineno += 1;
         Some(String::from_utf8_lossy(line).trim_end_matches('\r').to_string())
     };
     match next_line(&mut pos) {
