@@ -563,4 +563,33 @@ fn a_contact_operation_that_never_touches_is_a_failed_run() {
     let touched = dir.path().join("touched");
     let o = sim(&repo("data/scans/bottle/scene_mesh.ply"), &touched);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Asking for no force 10 mm off the surface (every point moved back along its force
+    // direction `k`), the tool skims the bottle untouched: no failure.
+    let mut header = true;
+    let skim: Vec<String> = kept
+        .iter()
+        .map(|l| {
+            if l.starts_with('#') || std::mem::take(&mut header) {
+                return l.to_string();
+            }
+            let mut f: Vec<String> = l.split(',').map(str::to_string).collect();
+            for axis in 0..3 {
+                let x: f64 = f[1 + axis].parse().unwrap();
+                let k: f64 = f[8 + axis].parse().unwrap();
+                f[1 + axis] = format!("{}", x - 0.01 * k);
+            }
+            f[11] = "0".into();
+            f.join(",")
+        })
+        .collect();
+    std::fs::write(&short, skim.join("\n") + "\n").unwrap();
+    let skimmed = dir.path().join("skimmed");
+    let o = sim(&repo("data/scans/bottle/scene_mesh.ply"), &skimmed);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(skimmed.join("summary.json")).unwrap()).unwrap();
+    assert!(
+        summary["first_contact_s"].is_null() && summary.get("failure").is_none(),
+        "{summary}"
+    );
 }

@@ -18,8 +18,8 @@ use crate::model::UvmsModel;
 use crate::output::OutDir;
 use crate::plot::{to_png, to_svg};
 use crate::sim::record::{figures, write_csv};
-use crate::sim::{SimConfig, SimSummary, SurfaceFrame, check_plant_model, simulate};
-use crate::trajectory::{Phase, Trajectory};
+use crate::sim::{ContactAsked, SimConfig, SimSummary, SurfaceFrame, check_plant_model, simulate};
+use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -205,7 +205,11 @@ pub fn sim_stage(
         out.write_bytes(&format!("{name}.png"), &to_png(&fig, 1200, 900))?;
     }
     let mut summary = serde_json::to_value(&run.summary).map_err(|e| Error::failed("summary", e))?;
-    let failure = untouched(trajectory, run.summary.figures.first_contact_s, cfg);
+    let failure = untouched(
+        run.contact_asked.as_ref(),
+        run.summary.figures.first_contact_s,
+        cfg,
+    );
     if let (Some(e), Some(map)) = (&failure, summary.as_object_mut()) {
         // The summary says it too: a script reading it sees the failure, not just figures.
         map.insert("failure".into(), e.to_string().into());
@@ -223,21 +227,28 @@ pub fn sim_stage(
     })
 }
 
-/// A failed run when the trajectory has a contact phase and the tool never touched the surface
-/// (a surface that is not the one the trajectory was planned on, or in another frame): the
-/// figures of such a run describe no contact operation.
-fn untouched(trajectory: &Trajectory, first_contact_s: Option<f64>, cfg: &SimConfig) -> Option<Error> {
-    let contact = || trajectory.samples.iter().filter(|s| s.phase == Phase::Contact);
-    let (from, to) = (contact().next()?.t, contact().next_back()?.t);
-    first_contact_s.is_none().then(|| {
+/// A failed run when the trajectory's contact phase asks the tool to touch the surface (a force,
+/// or points inside the material) and it never did (a surface that is not the one the trajectory
+/// was planned on, or in another frame): the figures of such a run describe no contact
+/// operation. A phase that asks for no force along or above the surface may skim it untouched.
+fn untouched(asked: Option<&ContactAsked>, first_contact_s: Option<f64>, cfg: &SimConfig) -> Option<Error> {
+    let a = asked?;
+    let asks_touch = a.force_n > 0.0 || a.deepest_m > 0.0;
+    (first_contact_s.is_none() && asks_touch).then(|| {
         let frame = match cfg.surface_frame {
             SurfaceFrame::Scan => "scan",
             SurfaceFrame::World => "world",
         };
+        let asks = if a.force_n > 0.0 {
+            format!("asks for up to {:.1} N", a.force_n)
+        } else {
+            format!("runs up to {:.1} mm inside the material", a.deepest_m * 1e3)
+        };
         Error::failed(
             "sim",
             format!(
-                "the tool never touched the surface, though the trajectory's contact phase runs from {from:.2} to {to:.2} s (the products are written): is sim.surface (in the {frame} frame, sim.surface_frame) the surface the trajectory was planned on?"
+                "the tool never touched the surface, though the trajectory's contact phase (from {:.2} to {:.2} s) {asks} (the products are written): is sim.surface (in the {frame} frame, sim.surface_frame) the surface the trajectory was planned on?",
+                a.from_s, a.to_s
             ),
         )
     })

@@ -169,22 +169,7 @@ impl Contact {
     /// point is searched among the triangles around the last queries' tips
     /// ([`Surface::project_tracked`]).
     pub fn evaluate(&mut self, tip: &Point3<f64>, v: &Vector3<f64>) -> ContactState {
-        let proj = self.surface.project_tracked(tip, &mut self.near);
-        // Behind the closest point's triangle, and not beyond an open mesh's rim (whose closest
-        // point is on the rim, off to the side: however far behind the rim triangle's plane,
-        // no material; counted inside, metres of penetration, a runaway at once).
-        let inside = (proj.point - tip).dot(&proj.normal) > 0.0 && !self.surface.on_rim(&proj);
-        let immersion = match self.cfg.material {
-            Material::Soil if inside => self.immersion(tip),
-            _ => None,
-        };
-        let (depth, n) = immersion.unwrap_or_else(|| {
-            let n = match self.cfg.normals {
-                Normals::Shaded => self.surface.shaded_normal(&proj),
-                Normals::Facet => proj.normal,
-            };
-            (if inside { proj.distance } else { -proj.distance }, n)
-        });
+        let (depth, n) = self.depth_and_normal(tip);
         if depth <= 0.0 {
             return ContactState {
                 wrench: Force::ZERO,
@@ -232,6 +217,33 @@ impl Contact {
             normal: n,
             damping,
         }
+    }
+
+    /// How deep a tip at `tip` is in the material (negative outside: minus its distance from
+    /// the surface), and the normal the contact force is along.
+    fn depth_and_normal(&mut self, tip: &Point3<f64>) -> (f64, Vector3<f64>) {
+        let proj = self.surface.project_tracked(tip, &mut self.near);
+        // Behind the closest point's triangle, and not beyond an open mesh's rim (whose closest
+        // point is on the rim, off to the side: however far behind the rim triangle's plane,
+        // no material; counted inside, metres of penetration, a runaway at once).
+        let inside = (proj.point - tip).dot(&proj.normal) > 0.0 && !self.surface.on_rim(&proj);
+        let immersion = match self.cfg.material {
+            Material::Soil if inside => self.immersion(tip),
+            _ => None,
+        };
+        immersion.unwrap_or_else(|| {
+            let n = match self.cfg.normals {
+                Normals::Shaded => self.surface.shaded_normal(&proj),
+                Normals::Facet => proj.normal,
+            };
+            (if inside { proj.distance } else { -proj.distance }, n)
+        })
+    }
+
+    /// How deep a point is in the material, m (negative outside: minus its distance from the
+    /// surface), as [`Contact::evaluate`] measures a tool tip's.
+    pub fn depth(&mut self, p: &Point3<f64>) -> f64 {
+        self.depth_and_normal(p).0
     }
 
     /// How deep a tip inside soil is buried, and the normal of the surface above it: the
