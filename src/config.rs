@@ -19,11 +19,23 @@ pub fn from_toml_str<T: DeserializeOwned + Serialize>(text: &str, origin: &str) 
         Some(l) => format!("{origin} line {l}"),
         None => origin.to_string(),
     };
-    let value: T = toml::from_str(text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-        Error::input(at(line), e.message())
+    let line_of = |e: &toml::de::Error| {
+        e.span()
+            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
+    };
+    let document = toml::Deserializer::parse(text).map_err(|e| Error::input(at(line_of(&e)), e.message()))?;
+    // The key the value belongs to, as the tables and arrays lead to it (`sim.hover.samples`):
+    // serde's own messages ("invalid length 2, expected an array of length 3", "expected
+    // usize") do not say which.
+    let value: T = serde_path_to_error::deserialize(document).map_err(|e| {
+        let key = e.path().to_string();
+        let inner = e.into_inner();
+        let message = if key.is_empty() || key == "." || inner.message().contains(&format!("`{key}`")) {
+            inner.message().to_string()
+        } else {
+            format!("{key}: {}", inner.message())
+        };
+        Error::input(at(line_of(&inner)), message)
     })?;
     // A fixed-size array (`[f64; 3]`) takes the first values of a longer one and drops the
     // rest: the resolved value, written back, holds what was kept.
@@ -31,26 +43,66 @@ pub fn from_toml_str<T: DeserializeOwned + Serialize>(text: &str, origin: &str) 
         (text.parse::<toml::Table>(), toml::Value::try_from(&value))
         && let Some((key, n, m)) = array_kept_short(&given, &kept, "")
     {
-        // The key's own name, without its tables and indices: `rows[0].inertia[1]` → `inertia`.
-        let last = key
-            .rsplit('.')
-            .next()
-            .and_then(|k| k.split('[').next())
-            .unwrap_or(&key);
-        let line = text
-            .lines()
-            .position(|l| {
-                l.trim_start()
-                    .strip_prefix(last)
-                    .is_some_and(|r| r.trim_start().starts_with('='))
-            })
-            .map(|i| i + 1);
         return Err(Error::input(
-            at(line),
+            at(line_of_key(text, &key)),
             format!("{key} has {n} values, {m} expected"),
         ));
     }
     Ok(value)
+}
+
+/// The line (from 1) that sets `key` (`plan.frames.vehicle_in_world.xyz_m`, `arm.links[2].dh`;
+/// an index after the last name is the array's element, not a table's): under its table's
+/// header, or as a dotted key. A key inside an inline table gives the first line setting a key
+/// of its own name.
+fn line_of_key(text: &str, key: &str) -> Option<usize> {
+    // The key without its own element index: `a.b[1]` → `a.b`.
+    let key = match key.rfind('[') {
+        Some(i) if !key[i..].contains('.') => &key[..i],
+        _ => key,
+    };
+    let last = key.rsplit('.').next().unwrap_or(key);
+    let sets = |l: &str, k: &str| l.strip_prefix(k).is_some_and(|r| r.trim_start().starts_with('='));
+    let mut table = String::new();
+    // The arrays of tables seen so far and their element counts.
+    let mut arrays: Vec<(String, usize)> = Vec::new();
+    let mut first_of_name = None;
+    for (i, line) in text.lines().enumerate() {
+        let l = line.trim_start();
+        if let Some(name) = l.strip_prefix("[[").and_then(|r| r.split("]]").next()) {
+            let name = name.trim().to_string();
+            let n = match arrays.iter_mut().find(|(a, _)| *a == name) {
+                Some((_, n)) => {
+                    *n += 1;
+                    *n
+                }
+                None => {
+                    arrays.push((name.clone(), 1));
+                    1
+                }
+            };
+            table = format!("{name}[{}]", n - 1);
+        } else if let Some(name) = l.strip_prefix('[').and_then(|r| r.split(']').next()) {
+            let name = name.trim();
+            // A sub-table of an array of tables belongs to its latest element.
+            table = arrays
+                .iter()
+                .find_map(|(a, n)| {
+                    name.strip_prefix(a.as_str())
+                        .and_then(|r| r.strip_prefix('.'))
+                        .map(|r| format!("{a}[{}].{r}", n - 1))
+                })
+                .unwrap_or_else(|| name.to_string());
+        } else if let Some(rest) = key.strip_prefix(table.as_str())
+            && (table.is_empty() || rest.starts_with('.'))
+            && sets(l, rest.trim_start_matches('.'))
+        {
+            return Some(i + 1);
+        } else if first_of_name.is_none() && sets(l, last) {
+            first_of_name = Some(i + 1);
+        }
+    }
+    first_of_name
 }
 
 /// The first array of `given` whose kept value (the same key in `kept`) is shorter: its key,
@@ -198,7 +250,7 @@ mod tests {
     }
 
     #[test]
-    fn an_array_longer_than_its_field_is_an_error_naming_it() {
+    fn an_array_of_the_wrong_length_or_a_wrong_value_is_an_error_naming_its_key() {
         for (text, key, line) in [
             (
                 "[inner]\nxyz_m = [1.0, 2.0, 3.0, 99.0]\n",
@@ -214,6 +266,24 @@ mod tests {
                 "[[rows]]\ninertia = [[1.0, 0.0], [0.0, 1.0, 7.0]]\n",
                 "rows[0].inertia[1] has 3 values, 2 expected",
                 2,
+            ),
+            // The line under the key's own table, not the first line setting a key of its name.
+            (
+                "[inner]\nxyz_m = [1.0, 2.0, 3.0]\n[[rows]]\nxyz_m = [1.0, 2.0, 3.0]\n[[rows]]\nradius_m = 1.0\nxyz_m = [1.0, 2.0, 3.0, 4.0]\n",
+                "rows[1].xyz_m has 4 values",
+                7,
+            ),
+            // Too short and of the wrong type or sign: serde's message, with the key.
+            (
+                "[inner]\nxyz_m = [1.0, 2.0]\n",
+                "inner.xyz_m: invalid length 2",
+                2,
+            ),
+            ("seed = -1\n", "seed: invalid value: integer `-1`", 1),
+            (
+                "[[rows]]\n[[rows]]\nradius_m = \"1\"\n",
+                "rows[1].radius_m: invalid type",
+                3,
             ),
         ] {
             let err = from_toml_str::<Demo>(text, "x.toml").unwrap_err();
