@@ -405,6 +405,29 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no_such_mesh.ply"));
     assert!(!o3.exists(), "a missing surface left files");
+    // A surface with no triangles, and none named: the file, or the pipeline and the key.
+    let points = dir.path().join("points.ply");
+    std::fs::write(
+        &points,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n",
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&p3).unwrap();
+    let mesh_line = text.lines().find(|l| l.starts_with("surface = ")).unwrap();
+    for (surface, named) in [
+        (
+            format!("surface = {:?}", points.to_str().unwrap()),
+            "points.ply: has no triangles",
+        ),
+        (String::new(), "variant.toml: sim.surface"),
+    ] {
+        std::fs::write(&p3, text.replace(mesh_line, &surface)).unwrap();
+        let o = run(&["run", p3.to_str().unwrap(), "--out", o3.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(named) && err.lines().count() == 1, "{err}");
+        assert!(!o3.exists(), "a surface with no triangles left files");
+    }
     let o = run(&["run", "no/such/pipeline.toml"]);
     assert_eq!(o.status.code(), Some(2));
 }

@@ -83,6 +83,12 @@ impl Pipeline {
             .map_err(|e| e.in_table(&origin, "perception."))?;
         p.plan.validate().map_err(|e| e.in_table(&origin, "plan."))?;
         p.sim.validate().map_err(|e| e.in_table(&origin, "sim."))?;
+        if p.sim.surface.is_none() {
+            return Err(Error::input(
+                format!("{origin}: sim.surface"),
+                "the true surface the tool touches is missing (a PLY mesh, e.g. scene_mesh.ply of uvms synth)",
+            ));
+        }
         Ok(p)
     }
 }

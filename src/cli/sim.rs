@@ -157,6 +157,12 @@ pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs
         )
     })?;
     let mesh = read_mesh(surface_file)?;
+    if mesh.triangles.is_empty() {
+        return Err(Error::input(
+            surface_file.display(),
+            "has no triangles: the true surface the tool touches is a triangle mesh (sim.surface)",
+        ));
+    }
     let mesh = match cfg.surface_frame {
         SurfaceFrame::Scan => mesh.transformed(&frames.t_world_scan()),
         SurfaceFrame::World => mesh,
