@@ -314,8 +314,14 @@ fn same_seed_same_bytes_other_seed_other_bytes() {
 fn bad_configurations_exit_2_naming_the_key() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
+    // The file and the key (the synthesis's own checks name the file too).
     let cases = [
-        ("[camera]\nfocal_px = -700.0\n", "camera.focal_px"),
+        ("[camera]\nfocal_px = -700.0\n", "bad.toml: camera.focal_px"),
+        // Valid, but the camera sees nothing: no empty scan is written.
+        (
+            "[camera]\nfocal_px = 1e300\n",
+            "bad.toml: camera: the stereo pair matched no point",
+        ),
         ("[sensor]\ndisparity_sigma = 0.1\n", "disparity_sigma"),
         (
             "[fouling]\nbump_height_m = [0.01, 0.001]\n",
@@ -325,7 +331,7 @@ fn bad_configurations_exit_2_naming_the_key() {
             "[object.bottle]\nneck_diameter_m = 0.4\n",
             "object.bottle.neck_diameter_m",
         ),
-        ("[camera]\ntilt_deg = 80.0\n", "camera.tilt_deg"),
+        ("[camera]\ntilt_deg = 80.0\n", "bad.toml: camera.tilt_deg"),
     ];
     for (text, key) in cases {
         let path = dir.path().join("bad.toml");
@@ -340,6 +346,7 @@ fn bad_configurations_exit_2_naming_the_key() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{text}: {err}");
         assert!(err.contains(key) && err.lines().count() == 1, "{text}: {err}");
+        assert!(!out.join("scan.ply").exists(), "{text}: a scan written");
     }
     let o = run(&["synth", "--scene", "reef", "--out", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));

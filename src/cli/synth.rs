@@ -8,7 +8,7 @@
 
 use super::{Ctx, Report};
 use crate::config;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::io::ply;
 use crate::output::OutDir;
 use crate::synth::{SceneKind, SynthConfig, synthesize};
@@ -45,7 +45,15 @@ pub fn run(args: &SynthArgs, _ctx: &Ctx) -> Result<Report> {
     if let Some(seed) = args.seed {
         cfg.seed = seed;
     }
-    cfg.validate()?;
+    // The synthesis names a bad key `config KEY`: here the file is known.
+    let in_file = |e: Error| match (e, &args.config) {
+        (Error::Input { what, reason }, Some(file)) if what.starts_with("config ") => Error::Input {
+            what: format!("{}: {}", file.display(), &what["config ".len()..]),
+            reason,
+        },
+        (e, _) => e,
+    };
+    cfg.validate().map_err(in_file)?;
     let inputs: Vec<&std::path::Path> = args.config.iter().map(|p| p.as_path()).collect();
     let out = OutDir::create(
         &args.out,
@@ -53,7 +61,7 @@ pub fn run(args: &SynthArgs, _ctx: &Ctx) -> Result<Report> {
         &["scan.ply", "scene_mesh.ply", "reference.ply", "truth.json"],
     )?;
     let started = std::time::Instant::now();
-    let s = synthesize(&cfg)?;
+    let s = synthesize(&cfg).map_err(in_file)?;
     let elapsed = started.elapsed().as_secs_f64();
 
     out.write_with("scan.ply", |w| ply::write_cloud(w, &s.scan))?;

@@ -420,6 +420,12 @@ pub fn render(
             truth.push(t);
         }
     }
+    if points.is_empty() {
+        return Err(Error::input(
+            "config camera",
+            "the stereo pair matched no point of the scene: an empty scan (camera.focal_px, baseline_m, distance_m, the image size?)",
+        ));
+    }
     Ok(Rendered {
         scan: PointCloud {
             points,
