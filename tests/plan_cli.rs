@@ -188,6 +188,25 @@ fn failed_runs_exit_1_and_bad_input_exits_2() {
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("line 3 column 2"), "{}", stderr(&o));
+    // A point repeated: a segment with no direction.
+    let repeated = dir.path().join("repeated.csv");
+    std::fs::write(&repeated, "x_m,y_m,z_m\n0.1,0,0\n0.1,0,0\n").unwrap();
+    let o = run(&[
+        "plan",
+        scan,
+        "--reference",
+        model,
+        "--pattern",
+        repeated.to_str().unwrap(),
+        "--out",
+        out,
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("repeated.csv line 3: repeats the previous point"),
+        "{}",
+        stderr(&o)
+    );
     // Named in a configuration file, the polyline is found beside it (not in the working
     // directory).
     let sub = dir.path().join("sub");

@@ -383,6 +383,17 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         String::from_utf8_lossy(&o.stderr)
     );
     assert!(!o5.exists(), "a bad perception value left files");
+    // A line whose sampling is astronomic: named with its table, found before any stage.
+    let p6 = variant(dir.path(), "[plan.line]\nlength_m = 1e6");
+    let o6 = dir.path().join("o6");
+    let o = run(&["run", p6.to_str().unwrap(), "--out", o6.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("variant.toml: plan.line.length_m"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(!o6.exists(), "a bad line length left files");
     // Found before the first stage runs: nothing written.
     assert!(
         !dir.path().join("o2").exists(),

@@ -798,7 +798,7 @@ pub fn line(ctx: &Context, cfg: &LineConfig) -> Result<PatternPath> {
             config,
         },
     };
-    bounded_count("line.length_m", cfg.length_m, config.step_m)?;
+    // (The count is bounded by `PlanConfig::validate`.)
     let steps = (cfg.length_m / config.step_m).ceil().max(1.0) as usize;
     let taus: Vec<f64> = (0..=steps)
         .map(|i| -cfg.length_m / 2.0 + cfg.length_m * i as f64 / steps as f64)
@@ -895,7 +895,14 @@ pub fn read_polyline(path: &Path) -> Result<Vec<(Point3<f64>, Option<f64>)>> {
                 "force_n is negative",
             ));
         }
-        out.push((Point3::new(v[0], v[1], v[2]), (ncol == 4).then_some(v[3])));
+        let point = Point3::new(v[0], v[1], v[2]);
+        if out.last().is_some_and(|(last, _)| *last == point) {
+            return Err(Error::input(
+                format!("{origin} line {}", i + 1),
+                "repeats the previous point (a segment of no length, with no direction)",
+            ));
+        }
+        out.push((point, (ncol == 4).then_some(v[3])));
     }
     if out.len() < 2 {
         return Err(Error::input(origin, "a polyline needs at least two points"));
@@ -967,8 +974,8 @@ fn rounded_polyline(points: &[(Point3<f64>, f64)], radius: f64, step: f64) -> Ve
 pub fn polyline(ctx: &Context, cfg: &PolylineConfig) -> Result<PatternPath> {
     let file = cfg.file.as_deref().ok_or_else(|| {
         Error::input(
-            "polyline.file",
-            "the polyline pattern needs a CSV file (--pattern FILE.csv)",
+            "plan.polyline.file",
+            "the polyline pattern needs a CSV file (uvms plan --pattern FILE.csv)",
         )
     })?;
     let raw = read_polyline(file)?;
