@@ -172,6 +172,16 @@ pub fn shown(v: f64) -> String {
     }
 }
 
+/// [`shown`] with `decimals` decimals for everyday magnitudes (a position in metres to the
+/// millimetre), in exponent form beyond them.
+pub fn shown_to(v: f64, decimals: usize) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&v.abs()) {
+        format!("{v:.decimals$}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
 /// `Ok` if `v` is finite and > 0, else an input error naming `what` (a configuration key).
 ///
 /// # Errors
@@ -322,6 +332,10 @@ mod tests {
     #[test]
     fn huge_and_tiny_values_are_shown_in_exponent_form() {
         assert_eq!(shown(-1e300), "-1e300");
+        assert_eq!(
+            (shown_to(1.23456, 3), shown_to(1e300, 3)),
+            ("1.235".into(), "1.000e300".into())
+        );
         assert_eq!(shown(2.5e-9), "2.5e-9");
         assert_eq!(
             (shown(0.0), shown(3600.5), shown(f64::NAN)),

@@ -394,6 +394,18 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         String::from_utf8_lossy(&o.stderr)
     );
     assert!(!o6.exists(), "a bad line length left files");
+    // Finite but faster than any sea: named before any stage (it failed in the simulation,
+    // 'thrust command: not finite', after the plan's products).
+    let p7 = variant(dir.path(), "[sim.scenario]\ncurrent_m_s = [1e300, 0.0, 0.0]");
+    let o7 = dir.path().join("o7");
+    let o = run(&["run", p7.to_str().unwrap(), "--out", o7.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("variant.toml: sim.scenario.current_m_s") && err.contains("got 1e300 m/s"),
+        "{err}"
+    );
+    assert!(!o7.exists(), "a current faster than any sea left files");
     // Found before the first stage runs: nothing written.
     assert!(
         !dir.path().join("o2").exists(),

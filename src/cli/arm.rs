@@ -225,7 +225,12 @@ fn matrix_text<'a>(rows: impl Iterator<Item = &'a [f64]>) -> String {
     let mut s = String::new();
     for r in rows {
         for v in r {
-            let _ = write!(s, " {v:>12.6}");
+            // Fixed columns (round-off near zero shows as 0), exponent form for huge values.
+            let _ = if v.abs() < 1e7 {
+                write!(s, " {v:>12.6}")
+            } else {
+                write!(s, " {v:>12.3e}")
+            };
         }
         s.push('\n');
     }

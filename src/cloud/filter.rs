@@ -20,6 +20,7 @@
 
 use super::PointCloud;
 use super::knn::map_knn;
+use crate::config::shown;
 use crate::error::{Error, Result};
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
@@ -171,7 +172,7 @@ pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<Voxe
     if !(v.is_finite() && v > 0.0) {
         return Err(Error::input(
             "voxel_m",
-            format!("must be a positive length in metres, got {v}"),
+            format!("must be a positive length in metres, got {}", shown(v)),
         ));
     }
     if cloud
@@ -202,7 +203,7 @@ pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<Voxe
         if span >= 2f64.powi(63) {
             return Err(Error::input(
                 "voxel_m",
-                format!("{v} m is too small for the cloud's extent"),
+                format!("{} m is too small for the cloud's extent", shown(v)),
             ));
         }
         bits[k] = 64 - (span as u64).leading_zeros();
@@ -210,7 +211,10 @@ pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<Voxe
     if bits.iter().sum::<u32>() > 64 {
         return Err(Error::input(
             "voxel_m",
-            format!("{v} m is too small for the cloud's extent (more than 2^64 voxels)"),
+            format!(
+                "{} m is too small for the cloud's extent (more than 2^64 voxels)",
+                shown(v)
+            ),
         ));
     }
     let (sy, sz) = (bits[2], bits[1] + bits[2]);

@@ -31,7 +31,7 @@ use super::project::{
     project_all,
 };
 use super::{ObjectAxes, ObjectInput, PlanInput, perpendicular};
-use crate::config::{non_negative, positive};
+use crate::config::{non_negative, positive, shown_to};
 use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
@@ -607,8 +607,8 @@ pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
         clip,
         || {
             format!(
-                "the raster's height of {:.3} m exceeds the scanned surface ({:.3} m to {:.3} m about its centre; {})",
-                cfg.height_m,
+                "the raster's height of {} m exceeds the scanned surface ({:.3} m to {:.3} m about its centre; {})",
+                shown_to(cfg.height_m, 3),
                 transect.scanned.0,
                 transect.scanned.1,
                 why(
@@ -631,8 +631,8 @@ pub fn raster(ctx: &Context, cfg: &RasterConfig) -> Result<PatternPath> {
             let row = walk_line(&tu, centre, cfg.width_m / 2.0);
             let ((a, b), cl) = fit((-cfg.width_m / 2.0, cfg.width_m / 2.0), row.scanned, clip, || {
                 format!(
-                    "row {j} of the raster ({:.3} m long) exceeds the scanned surface ({:.3} m to {:.3} m about its centre; {})",
-                    cfg.width_m,
+                    "row {j} of the raster ({} m long) exceeds the scanned surface ({:.3} m to {:.3} m about its centre; {})",
+                    shown_to(cfg.width_m, 3),
                     row.scanned.0,
                     row.scanned.1,
                     why(&row, (-cfg.width_m / 2.0, cfg.width_m / 2.0), row.scanned)

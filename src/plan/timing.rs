@@ -13,7 +13,7 @@
 //! is demanded during the approach and the retreat.
 
 use super::project::{MAX_COUNT, PathPoint, bounded_count};
-use crate::config::{non_negative, positive};
+use crate::config::{non_negative, positive, shown};
 use crate::error::{Error, Result};
 use crate::trajectory::{Phase, Sample};
 use nalgebra::UnitQuaternion;
@@ -122,14 +122,17 @@ impl TimingConfig {
 /// # Errors
 /// [`Error::Failed`] if the path is shorter than half a spacing.
 pub fn resample(points: &[PathPoint], spacing: f64) -> Result<(Vec<PathPoint>, f64)> {
-    let length: f64 = points.windows(2).map(|w| (w[1].point - w[0].point).norm()).sum();
+    // (A fold from +0: an empty sum of floats is −0.)
+    let length = points
+        .windows(2)
+        .fold(0.0, |sum, w| sum + (w[1].point - w[0].point).norm());
     if points.len() < 2 || length < spacing / 2.0 {
         return Err(Error::failed(
             "plan",
             format!(
-                "the projected path is {:.1} mm long, too short to sample at {:.1} mm",
+                "the projected path is {:.1} mm long, too short to sample at {} mm",
                 length * 1e3,
-                spacing * 1e3
+                shown(spacing * 1e3)
             ),
         ));
     }
@@ -137,7 +140,9 @@ pub fn resample(points: &[PathPoint], spacing: f64) -> Result<(Vec<PathPoint>, f
         return Err(Error::failed(
             "plan",
             format!(
-                "the path ({length:.3} m) would need more than {MAX_COUNT:.0e} samples at {spacing} m; raise timing.sample_period_s"
+                "the path ({} m) would need more than {MAX_COUNT:.0e} samples at {} m; raise timing.sample_period_s",
+                shown(length),
+                shown(spacing)
             ),
         ));
     }

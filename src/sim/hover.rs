@@ -22,7 +22,7 @@
 //! reaching the whole trajectory is an error that says how far the best got.
 
 use crate::arm::{Arm, JointVector};
-use crate::config::{non_negative, positive};
+use crate::config::{non_negative, positive, shown_to};
 use crate::error::{Error, Result};
 use crate::trajectory::{Phase, Trajectory};
 use crate::vehicle::thrusters::Thrusters;
@@ -381,13 +381,13 @@ pub fn choose(arm: &Arm, thrusters: &Thrusters, trajectory: &Trajectory, cfg: &H
             Err(Error::failed(
                 "hover",
                 format!(
-                    "no hover point reaches the whole trajectory within the joint limits: the best of {evaluated} candidates follows it to t = {:.2} s and the point at t = {:.2} s ({} phase, at [{:.3}, {:.3}, {:.3}] m) is out of reach",
+                    "no hover point reaches the whole trajectory within the joint limits: the best of {evaluated} candidates follows it to t = {:.2} s and the point at t = {:.2} s ({} phase, at [{}, {}, {}] m) is out of reach",
                     trajectory.samples[idx[reached.saturating_sub(1)]].t,
                     fail.t,
                     fail.phase.as_str(),
-                    p.x,
-                    p.y,
-                    p.z
+                    shown_to(p.x, 3),
+                    shown_to(p.y, 3),
+                    shown_to(p.z, 3)
                 ),
             ))
         }

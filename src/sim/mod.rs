@@ -36,7 +36,7 @@ pub mod vehicle_control;
 
 use crate::arm::JointVector;
 use crate::arm::dynamics::BaseMotion;
-use crate::config::{non_negative, positive, require, shown};
+use crate::config::{non_negative, positive, require, shown, shown_to};
 use crate::error::{Error, Result};
 use crate::integrate::Integrator;
 use crate::mesh::TriangleMesh;
@@ -311,8 +311,17 @@ impl SimConfig {
             )?;
         }
         non_negative("sim.settle_time_s", self.settle_time_s)?;
-        if !self.scenario.current_m_s.iter().all(|v| v.is_finite()) {
-            return Err(Error::input("sim.scenario.current_m_s", "must be finite"));
+        let [cx, cy, cz] = self.scenario.current_m_s;
+        let current = cx.hypot(cy).hypot(cz);
+        // The strongest tidal races run at some 5 m/s; an AUV works in a fraction of that.
+        if current.is_nan() || current > MAX_CURRENT_M_S {
+            return Err(Error::input(
+                "sim.scenario.current_m_s",
+                format!(
+                    "must be finite and at most {MAX_CURRENT_M_S} m/s fast (no sea current is faster), got {} m/s",
+                    shown(current)
+                ),
+            ));
         }
         positive("sim.dwell.tolerance_n", self.dwell.tolerance_n)?;
         non_negative("sim.dwell.hold_s", self.dwell.hold_s)?;
@@ -509,8 +518,10 @@ pub fn simulate(
         return Err(Error::failed(
             "sim",
             format!(
-                "the station held before the run has no equilibrium in the current: the controllers' estimate of it, [{:.3}, {:.3}, {:.3}] m/s, still moved by {moved:.1e} m/s after {HOLD_ITERATIONS} iterations (the arm's drag outweighs the vehicle's; [sim.vehicle] current_filter_s = 0 assumes still water)",
-                current.x, current.y, current.z
+                "the station held before the run has no equilibrium in the current: the controllers' estimate of it, [{}, {}, {}] m/s, still moved by {moved:.1e} m/s after {HOLD_ITERATIONS} iterations (the arm's drag outweighs the vehicle's; [sim.vehicle] current_filter_s = 0 assumes still water)",
+                shown_to(current.x, 3),
+                shown_to(current.y, 3),
+                shown_to(current.z, 3)
             ),
         ));
     }
@@ -761,6 +772,9 @@ pub fn simulate(
         contact_asked: ContactAsked::of(trajectory, &mut contact),
     })
 }
+
+/// The fastest sea current a scenario may set, m/s.
+const MAX_CURRENT_M_S: f64 = 10.0;
 
 /// Checks what the simulation needs of a plant's model beyond its own validation: no sea
 /// current of its own (the scenario's is the simulation's).

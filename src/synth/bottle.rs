@@ -17,6 +17,7 @@
 //! on the axis at the middle of the body (halfway between the base plane and the start of the
 //! shoulder); `y` and `z` complete a right-handed frame. The shape is symmetric about `x`.
 
+use crate::config::shown;
 use crate::error::{Error, Result};
 use crate::mesh::TriangleMesh;
 use nalgebra::Point3;
@@ -116,7 +117,7 @@ impl BottleConfig {
             if !(v.is_finite() && v > 0.0) {
                 return Err(Error::input(
                     key(k),
-                    format!("must be a positive number of metres (got {v})"),
+                    format!("must be a positive number of metres (got {})", shown(v)),
                 ));
             }
         }
@@ -127,14 +128,14 @@ impl BottleConfig {
             if v > MAX_SIZE_M {
                 return Err(Error::input(
                     key(k),
-                    format!("must be at most {MAX_SIZE_M} m (got {v})"),
+                    format!("must be at most {MAX_SIZE_M} m (got {})", shown(v)),
                 ));
             }
         }
         if !(self.push_up_m.is_finite() && self.push_up_m >= 0.0) {
             return Err(Error::input(
                 key("push_up_m"),
-                format!("must be zero or positive (got {})", self.push_up_m),
+                format!("must be zero or positive (got {})", shown(self.push_up_m)),
             ));
         }
         let r = 0.5 * self.body_diameter_m;
@@ -168,7 +169,7 @@ impl BottleConfig {
                 format!(
                     "must be less than the straight body's end, {:.3} m from the base (got {})",
                     self.body_end_m(),
-                    self.push_up_m
+                    shown(self.push_up_m)
                 ),
             ));
         }

@@ -7,6 +7,7 @@
 
 use super::bottle::BottleConfig;
 use super::random::stream;
+use crate::config::shown;
 use crate::error::{Error, Result};
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
@@ -283,7 +284,7 @@ fn positive(v: f64, key: &str) -> Result<()> {
     check(
         v.is_finite() && v > 0.0,
         key,
-        format!("must be positive (got {v})"),
+        format!("must be positive (got {})", shown(v)),
     )
 }
 
@@ -291,7 +292,7 @@ fn non_negative(v: f64, key: &str) -> Result<()> {
     check(
         v.is_finite() && v >= 0.0,
         key,
-        format!("must be zero or positive (got {v})"),
+        format!("must be zero or positive (got {})", shown(v)),
     )
 }
 
@@ -299,7 +300,7 @@ fn fraction(v: f64, key: &str) -> Result<()> {
     check(
         v.is_finite() && (0.0..=1.0).contains(&v),
         key,
-        format!("must be between 0 and 1 (got {v})"),
+        format!("must be between 0 and 1 (got {})", shown(v)),
     )
 }
 
@@ -307,7 +308,11 @@ fn range(r: [f64; 2], key: &str, lowest: f64, highest: f64) -> Result<()> {
     check(
         r.iter().all(|v| v.is_finite()) && lowest <= r[0] && r[0] <= r[1] && r[1] <= highest,
         key,
-        format!("must be [low, high] with {lowest} <= low <= high <= {highest} (got {r:?})"),
+        format!(
+            "must be [low, high] with {lowest} <= low <= high <= {highest} (got [{}, {}])",
+            shown(r[0]),
+            shown(r[1])
+        ),
     )
 }
 
@@ -351,7 +356,10 @@ impl SynthConfig {
         check(
             c.tilt_deg.is_finite() && (0.0..=75.0).contains(&c.tilt_deg),
             "camera.tilt_deg",
-            format!("must be 0 ..= 75 degrees from the vertical (got {})", c.tilt_deg),
+            format!(
+                "must be 0 ..= 75 degrees from the vertical (got {})",
+                shown(c.tilt_deg)
+            ),
         )?;
         positive(c.min_depth_m, "camera.min_depth_m")?;
         check(
