@@ -33,6 +33,7 @@
 //! mesh) and, every few samples, the tool axes `x_G` (red), `y_G` (green), `z_G` (blue).
 
 use crate::error::{Error, Result};
+use crate::frames::{Pose, pose_from_rows, pose_to_rows};
 use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
 use std::io::Write;
 use std::path::Path;
@@ -107,6 +108,9 @@ pub struct Trajectory {
     pub notes: Vec<String>,
 }
 
+/// How the note of [`Trajectory::t_world_scan_note`] starts.
+const T_WORLD_SCAN_NOTE: &str = "t_world_scan: ";
+
 /// The CSV columns, in order.
 pub const CSV_COLUMNS: [&str; 14] = [
     "t_s", "x_m", "y_m", "z_m", "qw", "qx", "qy", "qz", "kx", "ky", "kz", "force_n", "phase", "fallback",
@@ -177,6 +181,29 @@ impl Trajectory {
             },
             fallback: a.fallback,
         })
+    }
+
+    /// The note recording the scan frame's pose in the world the trajectory was planned with.
+    pub fn t_world_scan_note(t_world_scan: &Pose) -> String {
+        format!(
+            "{T_WORLD_SCAN_NOTE}{}",
+            serde_json::to_string(&pose_to_rows(t_world_scan)).unwrap_or_default()
+        )
+    }
+
+    /// The scan frame's pose in the world the trajectory was planned with, from its note
+    /// ([`Trajectory::t_world_scan_note`]); `None` without one.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming `origin` for a note that is not a rigid 4×4 pose.
+    pub fn planned_t_world_scan(&self, origin: &str) -> Result<Option<Pose>> {
+        let Some(rows) = self.notes.iter().find_map(|n| n.strip_prefix(T_WORLD_SCAN_NOTE)) else {
+            return Ok(None);
+        };
+        let what = format!("{origin}: note '{}'", T_WORLD_SCAN_NOTE.trim_end());
+        let rows: [[f64; 4]; 4] =
+            serde_json::from_str(rows).map_err(|e| Error::input(&what, format!("not a 4×4 matrix: {e}")))?;
+        pose_from_rows(&rows, &what).map(Some)
     }
 
     /// Writes the CSV file (module docs give the format).

@@ -639,3 +639,36 @@ fn a_contact_operation_that_never_touches_is_a_failed_run() {
         "{summary}"
     );
 }
+
+/// `uvms sim` places a surface given in the scan frame by the configuration's `[frames]`: other
+/// frames than the plan's (its trajectory's note) are bad input, not a run along a surface that
+/// is elsewhere.
+#[test]
+fn a_trajectory_planned_with_other_frames_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, _) = bottle_run();
+    let cfg = dir.path().join("frames.toml");
+    std::fs::write(
+        &cfg,
+        "[frames.camera_in_vehicle]\nxyz_m = [0.6, 0.0, 0.31]\nrpy_deg = [30.0, 0.0, 90.0]\n",
+    )
+    .unwrap();
+    let o = run(&[
+        "sim",
+        "--trajectory",
+        out.join("trajectory.csv").to_str().unwrap(),
+        "--surface",
+        repo("data/scans/bottle/scene_mesh.ply").to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        dir.path().join("o").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("trajectory.csv: was planned with the scan frame 0.010 m") && err.lines().count() == 1,
+        "{err}"
+    );
+    assert!(!dir.path().join("o").exists());
+}

@@ -260,6 +260,30 @@ fn untouched(asked: Option<&ContactAsked>, first_contact_s: Option<f64>, cfg: &S
     })
 }
 
+/// A surface in the scan frame is placed in the world by the configuration's `[frames]`: they
+/// must be the frames the trajectory was planned with (its note), or the tool runs along a
+/// surface that is elsewhere.
+fn check_frames(trajectory: &Trajectory, file: &Path, cfg: &SimCommandConfig) -> Result<()> {
+    let origin = file.display().to_string();
+    let Some(planned) = trajectory.planned_t_world_scan(&origin)? else {
+        return Ok(());
+    };
+    let used = cfg.frames.t_world_scan();
+    let moved = (planned.translation.vector - used.translation.vector).norm();
+    let turned = planned.rotation.angle_to(&used.rotation);
+    if cfg.sim.surface_frame == SurfaceFrame::World || (moved <= 1e-6 && turned <= 1e-6) {
+        return Ok(());
+    }
+    Err(Error::input(
+        origin,
+        format!(
+            "was planned with the scan frame {:.3} m and {:.2}° from where the configuration's [frames] put it (camera_in_vehicle, vehicle_in_world): the surface, in the scan frame (sim.surface_frame), would not be where the trajectory runs; give [frames] the frames of the plan",
+            moved,
+            turned.to_degrees()
+        ),
+    ))
+}
+
 /// Runs `uvms sim`.
 ///
 /// # Errors
@@ -271,6 +295,7 @@ pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
         cfg.sim.surface = Some(relative_to(None, s));
     }
     let trajectory = Trajectory::read_csv(&args.trajectory)?;
+    check_frames(&trajectory, &args.trajectory, &cfg)?;
     let sim_inputs = load_sim_inputs(&cfg.sim, &cfg.frames)?;
     let mut inputs: Vec<&Path> = vec![&args.trajectory];
     inputs.extend(cfg.sim.surface.as_deref());

@@ -346,10 +346,7 @@ pub fn plan(input: &PlanInput, config: &PlanConfig) -> Result<Plan> {
         samples: timed,
         notes: vec![
             format!("pattern: {}", config.pattern.as_str()),
-            format!(
-                "t_world_scan: {}",
-                serde_json::to_string(&pose_to_rows(&t_world_scan)).unwrap_or_default()
-            ),
+            Trajectory::t_world_scan_note(&t_world_scan),
         ],
     };
     let contact: Vec<_> = trajectory.phase(Phase::Contact).collect();
