@@ -1,6 +1,6 @@
 //! Triangle meshes (reference models, triangulated scan surfaces, true scene surfaces).
 
-use nalgebra::{Isometry3, Point3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
 
 /// The barycentric weights of `p` (projected into the triangle's plane) on the triangle
 /// `a, b, c`; the centroid's for a degenerate triangle.
@@ -26,6 +26,33 @@ pub struct TriangleMesh {
 }
 
 impl TriangleMesh {
+    /// The surface's area, area-weighted centroid and covariance (its second moment about the
+    /// centroid per unit area), exact per triangle (`A/12 (Σ vᵢvᵢᵀ + s sᵀ)` with `s = Σ vᵢ`);
+    /// `None` for a mesh without a finite, positive area. Triangle indices must be in range.
+    pub fn surface_moments(&self) -> Option<(f64, Point3<f64>, Matrix3<f64>)> {
+        let mut area = 0.0;
+        let mut first = Vector3::zeros();
+        let mut second = Matrix3::zeros();
+        for t in &self.triangles {
+            let [a, b, c] = t.map(|i| self.vertices[i as usize].coords);
+            let at = 0.5 * (b - a).cross(&(c - a)).norm();
+            let s = a + b + c;
+            area += at;
+            first += s * (at / 3.0);
+            second +=
+                (a * a.transpose() + b * b.transpose() + c * c.transpose() + s * s.transpose()) * (at / 12.0);
+        }
+        if !(area > 0.0 && area.is_finite()) {
+            return None;
+        }
+        let centre = first / area;
+        Some((
+            area,
+            Point3::from(centre),
+            second / area - centre * centre.transpose(),
+        ))
+    }
+
     /// Signed enclosed volume, cubic metres (divergence theorem): positive for a closed mesh
     /// wound outward, meaningless for an open one.
     pub fn signed_volume(&self) -> f64 {

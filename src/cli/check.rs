@@ -108,6 +108,7 @@ pub fn check_summary(r: &CheckResult) -> serde_json::Value {
     }
     if let Some(t) = &r.truth {
         v["rotation_error_deg"] = json!(t.rotation_error_deg);
+        v["axis_error_deg"] = json!(t.axis_error_deg);
         v["translation_error_m"] = json!(t.translation_error_m);
         v["add_s_m"] = json!(t.add_s_m);
         v["add_m"] = json!(t.add_m);
@@ -173,6 +174,13 @@ pub fn check_text(r: &CheckResult) -> String {
     );
     if let Some(e) = &r.truth {
         row("rotation error", format!("{:.4}°", e.rotation_error_deg));
+        row(
+            "axis error",
+            format!(
+                "{:.4}° (the model's axis of revolution: the rotation error without the turn about it)",
+                e.axis_error_deg
+            ),
+        );
         row(
             "translation error",
             format!("{:.3} mm", 1e3 * e.translation_error_m),

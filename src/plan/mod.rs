@@ -33,7 +33,7 @@ use crate::frames::{Pose, ScanFrames, pose_to_rows};
 use crate::mesh::TriangleMesh;
 use crate::output::OutDir;
 use crate::trajectory::{Phase, Trajectory};
-use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
+use nalgebra::{Point3, SymmetricEigen, Vector3};
 use patterns::{
     Context, LineConfig, ObjectContext, PatternKind, PatternPath, PolylineConfig, RasterConfig, RingConfig,
 };
@@ -132,27 +132,13 @@ impl ObjectAxes {
     /// # Errors
     /// [`Error::Failed`] for a mesh without area.
     pub fn from_mesh(mesh: &TriangleMesh) -> Result<ObjectAxes> {
-        let mut area = 0.0;
-        let mut first = Vector3::zeros();
-        let mut second = Matrix3::zeros();
         let n = mesh.vertices.len();
         if mesh.triangles.iter().flatten().any(|&i| i as usize >= n) {
             return Err(Error::input("mesh", "a triangle index is out of range"));
         }
-        for t in &mesh.triangles {
-            let [a, b, c] = t.map(|i| mesh.vertices[i as usize].coords);
-            let at = 0.5 * (b - a).cross(&(c - a)).norm();
-            let s = a + b + c;
-            area += at;
-            first += s * (at / 3.0);
-            second +=
-                (a * a.transpose() + b * b.transpose() + c * c.transpose() + s * s.transpose()) * (at / 12.0);
-        }
-        if !(area > 0.0 && area.is_finite()) {
+        let Some((_, centre, cov)) = mesh.surface_moments() else {
             return Err(Error::failed("plan", "the reference mesh has no surface area"));
-        }
-        let centre = first / area;
-        let cov = second / area - centre * centre.transpose();
+        };
         let eig = SymmetricEigen::new(cov);
         let imax = eig.eigenvalues.imax();
         let mut axis: Vector3<f64> = eig.eigenvectors.column(imax).into_owned();
@@ -161,7 +147,7 @@ impl ObjectAxes {
         {
             axis = -axis;
         }
-        Ok(Self::with_axis(mesh, Point3::from(centre), axis))
+        Ok(Self::with_axis(mesh, centre, axis))
     }
 
     /// The extent of a mesh about a given centre and axis (normalised here; any principal-axes
