@@ -175,38 +175,31 @@ fn failed_runs_exit_1_and_bad_input_exits_2() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     // Bad files and arguments.
     let bad_csv = dir.path().join("bad.csv");
-    std::fs::write(&bad_csv, "x_m,y_m,z_m\n0,0,0\n0,nope,0\n").unwrap();
-    let o = run(&[
-        "plan",
-        scan,
-        "--reference",
-        model,
-        "--pattern",
-        bad_csv.to_str().unwrap(),
-        "--out",
-        out,
-    ]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("line 3 column 2"), "{}", stderr(&o));
-    // A point repeated: a segment with no direction.
-    let repeated = dir.path().join("repeated.csv");
-    std::fs::write(&repeated, "x_m,y_m,z_m\n0.1,0,0\n0.1,0,0\n").unwrap();
-    let o = run(&[
-        "plan",
-        scan,
-        "--reference",
-        model,
-        "--pattern",
-        repeated.to_str().unwrap(),
-        "--out",
-        out,
-    ]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("repeated.csv line 3: repeats the previous point"),
-        "{}",
-        stderr(&o)
-    );
+    // A point repeated (a segment with no direction); a cell that is not a number.
+    let with_pattern = |pattern: &str| {
+        run(&[
+            "plan",
+            scan,
+            "--reference",
+            model,
+            "--pattern",
+            pattern,
+            "--out",
+            out,
+        ])
+    };
+    for (text, named) in [
+        (
+            "x_m,y_m,z_m\n0.1,0,0\n0.1,0,0\n",
+            "bad.csv line 3: repeats the previous point",
+        ),
+        ("x_m,y_m,z_m\n0,0,0\n0,nope,0\n", "bad.csv line 3 column 2"),
+    ] {
+        std::fs::write(&bad_csv, text).unwrap();
+        let o = with_pattern(bad_csv.to_str().unwrap());
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains(named), "{}", stderr(&o));
+    }
     // Named in a configuration file, the polyline is found beside it (not in the working
     // directory).
     let sub = dir.path().join("sub");
@@ -234,16 +227,7 @@ fn failed_runs_exit_1_and_bad_input_exits_2() {
         out,
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    let o = run(&[
-        "plan",
-        scan,
-        "--reference",
-        model,
-        "--pattern",
-        "spiral",
-        "--out",
-        out,
-    ]);
+    let o = with_pattern("spiral");
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     std::fs::write(&cfg, "[plan.ring]\narc_degrees = 90.0\n").unwrap();
     let o = with_config(&cfg);

@@ -372,40 +372,28 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("variant.toml: sim.dwell.tolerance_n"));
-    // A perception value: named with its table in the pipeline file, found before any stage.
-    let p5 = variant(dir.path(), "[perception.clean]\nvoxel_m = nan");
-    let o5 = dir.path().join("o5");
-    let o = run(&["run", p5.to_str().unwrap(), "--out", o5.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(
-        String::from_utf8_lossy(&o.stderr).contains("variant.toml: perception.clean.voxel_m"),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert!(!o5.exists(), "a bad perception value left files");
-    // A line whose sampling is astronomic: named with its table, found before any stage.
-    let p6 = variant(dir.path(), "[plan.line]\nlength_m = 1e6");
-    let o6 = dir.path().join("o6");
-    let o = run(&["run", p6.to_str().unwrap(), "--out", o6.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(
-        String::from_utf8_lossy(&o.stderr).contains("variant.toml: plan.line.length_m"),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert!(!o6.exists(), "a bad line length left files");
-    // Finite but faster than any sea: named before any stage (it failed in the simulation,
-    // 'thrust command: not finite', after the plan's products).
-    let p7 = variant(dir.path(), "[sim.scenario]\ncurrent_m_s = [1e300, 0.0, 0.0]");
-    let o7 = dir.path().join("o7");
-    let o = run(&["run", p7.to_str().unwrap(), "--out", o7.to_str().unwrap()]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("variant.toml: sim.scenario.current_m_s") && err.contains("got 1e300 m/s"),
-        "{err}"
-    );
-    assert!(!o7.exists(), "a current faster than any sea left files");
+    // Named with its table in the pipeline file, found before any stage: a perception value, a
+    // line whose sampling is astronomic, a current faster than any sea (it failed in the
+    // simulation, 'thrust command: not finite', after the plan's products).
+    for (extra, named) in [
+        (
+            "[perception.clean]\nvoxel_m = nan",
+            "variant.toml: perception.clean.voxel_m",
+        ),
+        ("[plan.line]\nlength_m = 1e6", "variant.toml: plan.line.length_m"),
+        (
+            "[sim.scenario]\ncurrent_m_s = [1e300, 0.0, 0.0]",
+            "variant.toml: sim.scenario.current_m_s: must be finite and at most 10 m/s fast (no sea current is faster), got 1e300 m/s",
+        ),
+    ] {
+        let p = variant(dir.path(), extra);
+        let o5 = dir.path().join("o5");
+        let o = run(&["run", p.to_str().unwrap(), "--out", o5.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(named), "{err}");
+        assert!(!o5.exists(), "{extra}: files left");
+    }
     // Found before the first stage runs: nothing written.
     assert!(
         !dir.path().join("o2").exists(),
