@@ -660,3 +660,26 @@ fn a_trajectory_planned_with_other_frames_is_refused() {
     );
     assert!(!dir.path().join("o").exists());
 }
+
+/// A force no hover point's thrusters can hold is a failed run that says so, before the
+/// simulation (5 kN against thrusters of a few hundred newtons).
+#[test]
+fn a_force_beyond_the_thrusters_is_a_failed_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = variant(dir.path(), "");
+    let text = std::fs::read_to_string(&p).unwrap();
+    assert!(text.contains("force_n = 60.0"));
+    std::fs::write(&p, text.replacen("force_n = 60.0", "force_n = 5000.0", 1)).unwrap();
+    let o = run(&[
+        "run",
+        p.to_str().unwrap(),
+        "--out",
+        dir.path().join("o").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("hover: the thrusters cannot hold the contact") && err.contains("up to 5000.0 N"),
+        "{err}"
+    );
+}

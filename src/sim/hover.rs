@@ -19,7 +19,9 @@
 //! largest worst-case manipulability `min |det J(q)|` (Yoshikawa, in closed form for the
 //! PUMA class) wins, the less utilised of two within a millionth of each other (if none is
 //! within, the least utilised); a second, finer grid around it refines the choice. No candidate
-//! reaching the whole trajectory is an error that says how far the best got.
+//! reaching the whole trajectory is an error that says how far the best got, and so is a
+//! winner whose thrust utilisation exceeds 1 (the least utilised when none is within the limit:
+//! no candidate's thrusters can hold the contact).
 
 use crate::arm::{Arm, JointVector};
 use crate::config::{non_negative, positive, shown_to};
@@ -95,6 +97,14 @@ impl HoverConfig {
         non_negative("sim.hover.min_clearance_m", self.min_clearance_m)?;
         non_negative("sim.hover.drag_n", self.drag_n)?;
         positive("sim.hover.max_thrust_utilisation", self.max_thrust_utilisation)?;
+        crate::config::require(
+            self.max_thrust_utilisation <= 1.0,
+            "sim.hover.max_thrust_utilisation",
+            format!(
+                "must be at most 1 (a fraction of the thrusters' thrust), got {}",
+                crate::config::shown(self.max_thrust_utilisation)
+            ),
+        )?;
         if self.samples < 2 || self.samples > 100_000 {
             return Err(Error::input("sim.hover.samples", "must be between 2 and 100000"));
         }
@@ -369,6 +379,20 @@ pub fn choose(arm: &Arm, thrusters: &Thrusters, trajectory: &Trajectory, cfg: &H
         }
     }
     match best {
+        // The least utilised of the candidates that reach, when even it needs more than the
+        // thrusters have: the run would saturate them at once.
+        Some((_, r)) if r.reached == targets.len() && (r.utilisation.is_nan() || r.utilisation > 1.0) => {
+            let force = trajectory.samples.iter().map(|s| s.force).fold(0.0, f64::max);
+            Err(Error::failed(
+                "hover",
+                format!(
+                    "the thrusters cannot hold the contact at any hover point searched that reaches the trajectory: the least utilised needs {} times the most loaded thruster's thrust (the trajectory asks for up to {} N, sim.hover.drag_n {} N)",
+                    shown_to(r.utilisation, 2),
+                    shown_to(force, 1),
+                    shown_to(cfg.drag_n, 1)
+                ),
+            ))
+        }
         Some((pose, r)) if r.reached == targets.len() => Ok(Hover {
             t_world_body: pose,
             q_start: r.q_start,
