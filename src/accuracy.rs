@@ -19,6 +19,7 @@
 use crate::cloud::pca::{mean_covariance, principal_axes, sorted_eigen};
 use crate::error::{Error, Result};
 use crate::frames::{Pose, pose_error};
+use crate::mesh::TriangleMesh;
 use crate::spatial::KdIndex;
 use crate::surface::Surface;
 use nalgebra::{Matrix3, Point3, Vector3};
@@ -265,7 +266,7 @@ type ClosestDistance = dyn Fn(&Point3<f64>) -> f64 + Sync;
 /// [`Error::Failed`] (stage `accuracy`) for an empty model.
 pub fn truth_errors(
     model: &[Point3<f64>],
-    mesh: Option<&crate::mesh::TriangleMesh>,
+    mesh: Option<&TriangleMesh>,
     estimate: &Pose,
     truth: &Pose,
 ) -> Result<TruthErrors> {
@@ -275,9 +276,9 @@ pub fn truth_errors(
     // The surface's exact moments when there is a mesh: 20,000 random samples of the bottle
     // tilt its axis by some 0.3°.
     let covariance = mesh
-        .and_then(|m| m.surface_moments())
-        .map(|(_, _, c)| c)
-        .or_else(|| mean_covariance(model).map(|(_, c)| c))
+        .and_then(TriangleMesh::surface_moments)
+        .or_else(|| mean_covariance(model))
+        .map(|(_, c)| c)
         .unwrap_or_else(Matrix3::identity);
     let axis = distinct_axis(&covariance);
     let axis_error_deg = (estimate.rotation * axis)

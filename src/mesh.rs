@@ -26,10 +26,10 @@ pub struct TriangleMesh {
 }
 
 impl TriangleMesh {
-    /// The surface's area, area-weighted centroid and covariance (its second moment about the
+    /// The surface's area-weighted centroid and covariance (its second moment about the
     /// centroid per unit area), exact per triangle (`A/12 (Σ vᵢvᵢᵀ + s sᵀ)` with `s = Σ vᵢ`);
     /// `None` for a mesh without a finite, positive area. Triangle indices must be in range.
-    pub fn surface_moments(&self) -> Option<(f64, Point3<f64>, Matrix3<f64>)> {
+    pub fn surface_moments(&self) -> Option<(Point3<f64>, Matrix3<f64>)> {
         let mut area = 0.0;
         let mut first = Vector3::zeros();
         let mut second = Matrix3::zeros();
@@ -46,11 +46,7 @@ impl TriangleMesh {
             return None;
         }
         let centre = first / area;
-        Some((
-            area,
-            Point3::from(centre),
-            second / area - centre * centre.transpose(),
-        ))
+        Some((Point3::from(centre), second / area - centre * centre.transpose()))
     }
 
     /// Signed enclosed volume, cubic metres (divergence theorem): positive for a closed mesh

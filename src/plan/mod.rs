@@ -136,7 +136,7 @@ impl ObjectAxes {
         if mesh.triangles.iter().flatten().any(|&i| i as usize >= n) {
             return Err(Error::input("mesh", "a triangle index is out of range"));
         }
-        let Some((_, centre, cov)) = mesh.surface_moments() else {
+        let Some((centre, cov)) = mesh.surface_moments() else {
             return Err(Error::failed("plan", "the reference mesh has no surface area"));
         };
         let eig = SymmetricEigen::new(cov);

@@ -24,7 +24,7 @@
 //! no candidate's thrusters can hold the contact).
 
 use crate::arm::{Arm, JointVector};
-use crate::config::{non_negative, positive, shown_to};
+use crate::config::{non_negative, positive, require, shown, shown_to};
 use crate::error::{Error, Result};
 use crate::trajectory::{Phase, Trajectory};
 use crate::vehicle::thrusters::Thrusters;
@@ -97,12 +97,12 @@ impl HoverConfig {
         non_negative("sim.hover.min_clearance_m", self.min_clearance_m)?;
         non_negative("sim.hover.drag_n", self.drag_n)?;
         positive("sim.hover.max_thrust_utilisation", self.max_thrust_utilisation)?;
-        crate::config::require(
+        require(
             self.max_thrust_utilisation <= 1.0,
             "sim.hover.max_thrust_utilisation",
             format!(
                 "must be at most 1 (a fraction of the thrusters' thrust), got {}",
-                crate::config::shown(self.max_thrust_utilisation)
+                shown(self.max_thrust_utilisation)
             ),
         )?;
         if self.samples < 2 || self.samples > 100_000 {
@@ -113,7 +113,7 @@ impl HoverConfig {
         {
             return Err(Error::input("sim.hover.position_m", "must be finite"));
         }
-        crate::config::require(self.yaw_deg.is_finite(), "sim.hover.yaw_deg", "must be finite")?;
+        require(self.yaw_deg.is_finite(), "sim.hover.yaw_deg", "must be finite")?;
         // The coarse grid's candidates: positions across, heights, headings.
         let across = 2.0 * (self.horizontal_range_m / self.step_m).floor() + 1.0;
         let candidates = across * across * (((hi - lo) / self.step_m).floor() + 1.0) * self.headings() as f64;
