@@ -20,8 +20,13 @@ pub fn pose_to_rows(pose: &Pose) -> [[f64; 4]; 4] {
     std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)]))
 }
 
+/// The largest translation a pose may have, m: a thousand kilometres, past any scene, short of
+/// the magnitudes whose errors overflow.
+const MAX_TRANSLATION_M: f64 = 1e6;
+
 /// A pose from a 4×4 row-major matrix; the rotation block must be orthonormal with determinant
-/// +1 (to 1e-6) and the last row `0 0 0 1`. `what` names the source in errors.
+/// +1 (to 1e-6), the last row `0 0 0 1` and the translation within 10⁶ m. `what` names the
+/// source in errors.
 ///
 /// # Errors
 /// [`Error::Input`] naming `what` when the matrix is not a rigid transform.
@@ -41,11 +46,18 @@ pub fn pose_from_rows(rows: &[[f64; 4]; 4], what: &str) -> Result<Pose> {
             "pose matrix's rotation block is not a rotation",
         ));
     }
+    let t = Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]);
+    if t.amax() > MAX_TRANSLATION_M {
+        return Err(Error::input(
+            what,
+            format!(
+                "pose matrix's translation is {} m along an axis: more than {MAX_TRANSLATION_M:.0e} m, beyond any scene (a pose in other units?)",
+                crate::config::shown(t.amax())
+            ),
+        ));
+    }
     let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
-    Ok(Isometry3::from_parts(
-        Translation3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]),
-        rot,
-    ))
+    Ok(Isometry3::from_parts(Translation3::from(t), rot))
 }
 
 /// Reads the pose stored under `key` in the JSON pose file `path`.
@@ -227,5 +239,20 @@ mod tests {
         let mut rows = pose_to_rows(&Pose::identity());
         rows[0][0] = 2.0;
         assert_eq!(pose_from_rows(&rows, "t").unwrap_err().exit_code(), 2);
+    }
+
+    /// Finite but past any scene: the errors against it would overflow (a ground truth 1e300 m
+    /// away gave an infinite translation error, `null` in the summary).
+    #[test]
+    fn rejects_a_translation_past_any_scene() {
+        let mut rows = pose_to_rows(&Pose::identity());
+        rows[1][3] = -1e300;
+        let e = pose_from_rows(&rows, "truth.json key t").unwrap_err();
+        assert!(
+            e.to_string().contains("translation is 1e300 m along an axis"),
+            "{e}"
+        );
+        rows[1][3] = -9e5;
+        assert!(pose_from_rows(&rows, "t").is_ok());
     }
 }
