@@ -588,6 +588,19 @@ impl UvmsModel {
                 Err(bad(field, "must be finite numbers"))
             }
         };
+        if let Some((key, v)) = toml::Value::try_from(self)
+            .ok()
+            .as_ref()
+            .and_then(|m| out_of_range(m, ""))
+        {
+            return Err(bad(
+                &key,
+                &format!(
+                    "{} is beyond any vehicle, arm or sea (every value of a model is within ±{MAX_MODEL_VALUE:.0e})",
+                    crate::config::shown(v)
+                ),
+            ));
+        }
         let e = &self.environment;
         finite(
             "environment",
@@ -723,6 +736,34 @@ impl UvmsModel {
     }
 }
 
+/// The largest magnitude of any value in a model file: far past any vehicle, arm or sea in SI
+/// units (a mass of a million tonnes, a length of a thousand kilometres), short of the
+/// magnitudes whose products in the dynamics lose all precision or overflow.
+const MAX_MODEL_VALUE: f64 = 1e9;
+
+/// The first number of `v` (its key, under `prefix`) beyond [`MAX_MODEL_VALUE`].
+fn out_of_range(v: &toml::Value, prefix: &str) -> Option<(String, f64)> {
+    let key = |k: &str| {
+        if prefix.is_empty() {
+            k.to_string()
+        } else {
+            format!("{prefix}.{k}")
+        }
+    };
+    match v {
+        toml::Value::Float(x) if x.abs() > MAX_MODEL_VALUE => Some((prefix.to_string(), *x)),
+        toml::Value::Integer(i) if (*i as f64).abs() > MAX_MODEL_VALUE => {
+            Some((prefix.to_string(), *i as f64))
+        }
+        toml::Value::Table(t) => t.iter().find_map(|(k, v)| out_of_range(v, &key(k))),
+        toml::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| out_of_range(v, &format!("{prefix}[{}]", i + 1))),
+        _ => None,
+    }
+}
+
 /// A rotational inertia must be finite, symmetric and positive semi-definite. (The triangle
 /// inequality of the principal moments is not required: the published PUMA 560 link 3 violates
 /// it, and link 1 gives only the moment about its joint axis.)
@@ -844,5 +885,18 @@ mod tests {
         let mut m = UvmsModel::default();
         m.thrusters.units.clear();
         assert!(m.validate("m.toml").is_err());
+        // Finite but past any vehicle, named with its key (it failed in the simulation, after
+        // the plan's products, as a mass matrix not positive definite or a thrust not finite).
+        let mut m = UvmsModel::default();
+        m.environment.water_density = 1e300;
+        let msg = m.validate("m.toml").unwrap_err().to_string();
+        assert!(
+            msg.contains("m.toml: environment.water_density: 1e300 is beyond"),
+            "{msg}"
+        );
+        let mut m = UvmsModel::default();
+        m.vehicle.inertia[2][2] = -2e9;
+        let msg = m.validate("m.toml").unwrap_err().to_string();
+        assert!(msg.contains("vehicle.inertia[3][3]: -2e9"), "{msg}");
     }
 }
