@@ -182,6 +182,31 @@ pub fn shown_to(v: f64, decimals: usize) -> String {
     }
 }
 
+/// The first real number of `value` (serialised as TOML; counts and seeds are integers and left
+/// out) whose magnitude exceeds `limit`, with its key (`arm.links[2].mass`; array elements
+/// counted from `first_index`).
+pub fn first_beyond<T: Serialize>(value: &T, limit: f64, first_index: usize) -> Option<(String, f64)> {
+    fn walk(v: &toml::Value, key: &str, limit: f64, first: usize) -> Option<(String, f64)> {
+        let sub = |k: &str| {
+            if key.is_empty() {
+                k.to_string()
+            } else {
+                format!("{key}.{k}")
+            }
+        };
+        match v {
+            toml::Value::Float(x) if x.abs() > limit => Some((key.to_string(), *x)),
+            toml::Value::Table(t) => t.iter().find_map(|(k, v)| walk(v, &sub(k), limit, first)),
+            toml::Value::Array(a) => a
+                .iter()
+                .enumerate()
+                .find_map(|(i, v)| walk(v, &format!("{key}[{}]", i + first), limit, first)),
+            _ => None,
+        }
+    }
+    walk(&toml::Value::try_from(value).ok()?, "", limit, first_index)
+}
+
 /// `Ok` if `v` is finite and > 0, else an input error naming `what` (a configuration key).
 ///
 /// # Errors

@@ -588,11 +588,7 @@ impl UvmsModel {
                 Err(bad(field, "must be finite numbers"))
             }
         };
-        if let Some((key, v)) = toml::Value::try_from(self)
-            .ok()
-            .as_ref()
-            .and_then(|m| out_of_range(m, ""))
-        {
+        if let Some((key, v)) = crate::config::first_beyond(self, MAX_MODEL_VALUE, 1) {
             return Err(bad(
                 &key,
                 &format!(
@@ -740,29 +736,6 @@ impl UvmsModel {
 /// units (a mass of a million tonnes, a length of a thousand kilometres), short of the
 /// magnitudes whose products in the dynamics lose all precision or overflow.
 const MAX_MODEL_VALUE: f64 = 1e9;
-
-/// The first number of `v` (its key, under `prefix`) beyond [`MAX_MODEL_VALUE`].
-fn out_of_range(v: &toml::Value, prefix: &str) -> Option<(String, f64)> {
-    let key = |k: &str| {
-        if prefix.is_empty() {
-            k.to_string()
-        } else {
-            format!("{prefix}.{k}")
-        }
-    };
-    match v {
-        toml::Value::Float(x) if x.abs() > MAX_MODEL_VALUE => Some((prefix.to_string(), *x)),
-        toml::Value::Integer(i) if (*i as f64).abs() > MAX_MODEL_VALUE => {
-            Some((prefix.to_string(), *i as f64))
-        }
-        toml::Value::Table(t) => t.iter().find_map(|(k, v)| out_of_range(v, &key(k))),
-        toml::Value::Array(a) => a
-            .iter()
-            .enumerate()
-            .find_map(|(i, v)| out_of_range(v, &format!("{prefix}[{}]", i + 1))),
-        _ => None,
-    }
-}
 
 /// A rotational inertia must be finite, symmetric and positive semi-definite. (The triangle
 /// inequality of the principal moments is not required: the published PUMA 560 link 3 violates

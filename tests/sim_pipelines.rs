@@ -373,14 +373,18 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("variant.toml: sim.dwell.tolerance_n"));
     // Named with its table in the pipeline file, found before any stage: a perception value, a
-    // line whose sampling is astronomic, a current faster than any sea (it failed in the
-    // simulation, 'thrust command: not finite', after the plan's products).
+    // line whose sampling is astronomic, a sensor's noise past any sensor, a current faster than
+    // any sea (the last two failed in the simulation, after the plan's products).
     for (extra, named) in [
         (
             "[perception.clean]\nvoxel_m = nan",
             "variant.toml: perception.clean.voxel_m",
         ),
         ("[plan.line]\nlength_m = 1e6", "variant.toml: plan.line.length_m"),
+        (
+            "[sim.sensors]\ntorque_noise_nm_per_rt_hz = 1e300",
+            "variant.toml: sim.sensors.torque_noise_nm_per_rt_hz: 1e300 is beyond",
+        ),
         (
             "[sim.scenario]\ncurrent_m_s = [1e300, 0.0, 0.0]",
             "variant.toml: sim.scenario.current_m_s: must be finite and at most 10 m/s fast (no sea current is faster), got 1e300 m/s",
