@@ -182,11 +182,20 @@ pub fn shown_to(v: f64, decimals: usize) -> String {
     }
 }
 
-/// The first real number of `value` (serialised as TOML; counts and seeds are integers and left
-/// out) whose magnitude exceeds `limit`, with its key (`arm.links[2].mass`; array elements
-/// counted from `first_index`).
-pub fn first_beyond<T: Serialize>(value: &T, limit: f64, first_index: usize) -> Option<(String, f64)> {
-    fn walk(v: &toml::Value, key: &str, limit: f64, first: usize) -> Option<(String, f64)> {
+/// The largest magnitude of a real value in a configuration or model: past any scene, vehicle,
+/// sensor, gain or material in SI units (a thousand kilometres, a million tonnes), short of the
+/// magnitudes whose products lose all precision or overflow. A value beyond it could only make a
+/// run diverge, or a plan overflow, after earlier stages have written their products.
+pub const MAX_VALUE: f64 = 1e9;
+
+/// `Ok` if every real number of `value` (serialised as TOML; counts and seeds are integers and
+/// left out) is within ±[`MAX_VALUE`], else an input error naming the first beyond by its key
+/// under `prefix` (`arm.links[2].mass`: array elements counted from `first_index`).
+///
+/// # Errors
+/// [`Error::Input`] naming the key.
+pub fn within_range<T: Serialize>(value: &T, prefix: &str, first_index: usize) -> Result<()> {
+    fn walk(v: &toml::Value, key: &str, first: usize) -> Option<(String, f64)> {
         let sub = |k: &str| {
             if key.is_empty() {
                 k.to_string()
@@ -195,16 +204,28 @@ pub fn first_beyond<T: Serialize>(value: &T, limit: f64, first_index: usize) -> 
             }
         };
         match v {
-            toml::Value::Float(x) if x.abs() > limit => Some((key.to_string(), *x)),
-            toml::Value::Table(t) => t.iter().find_map(|(k, v)| walk(v, &sub(k), limit, first)),
+            toml::Value::Float(x) if x.abs() > MAX_VALUE => Some((key.to_string(), *x)),
+            toml::Value::Table(t) => t.iter().find_map(|(k, v)| walk(v, &sub(k), first)),
             toml::Value::Array(a) => a
                 .iter()
                 .enumerate()
-                .find_map(|(i, v)| walk(v, &format!("{key}[{}]", i + first), limit, first)),
+                .find_map(|(i, v)| walk(v, &format!("{key}[{}]", i + first), first)),
             _ => None,
         }
     }
-    walk(&toml::Value::try_from(value).ok()?, "", limit, first_index)
+    match toml::Value::try_from(value)
+        .ok()
+        .and_then(|v| walk(&v, "", first_index))
+    {
+        Some((key, v)) => Err(Error::input(
+            format!("{prefix}{key}"),
+            format!(
+                "{} is beyond any scene, vehicle, sensor or material in SI units (every real value is within ±{MAX_VALUE:.0e})",
+                shown(v)
+            ),
+        )),
+        None => Ok(()),
+    }
 }
 
 /// `Ok` if `v` is finite and > 0, else an input error naming `what` (a configuration key).

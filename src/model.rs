@@ -588,15 +588,7 @@ impl UvmsModel {
                 Err(bad(field, "must be finite numbers"))
             }
         };
-        if let Some((key, v)) = crate::config::first_beyond(self, MAX_MODEL_VALUE, 1) {
-            return Err(bad(
-                &key,
-                &format!(
-                    "{} is beyond any vehicle, arm or sea (every value of a model is within ±{MAX_MODEL_VALUE:.0e})",
-                    crate::config::shown(v)
-                ),
-            ));
-        }
+        crate::config::within_range(self, &format!("{origin}: "), 1)?;
         let e = &self.environment;
         finite(
             "environment",
@@ -731,11 +723,6 @@ impl UvmsModel {
         Ok(())
     }
 }
-
-/// The largest magnitude of any value in a model file: far past any vehicle, arm or sea in SI
-/// units (a mass of a million tonnes, a length of a thousand kilometres), short of the
-/// magnitudes whose products in the dynamics lose all precision or overflow.
-const MAX_MODEL_VALUE: f64 = 1e9;
 
 /// A rotational inertia must be finite, symmetric and positive semi-definite. (The triangle
 /// inequality of the principal moments is not required: the published PUMA 560 link 3 violates

@@ -176,7 +176,8 @@ impl PerceptionConfig {
         self.normals.validate()?;
         self.register.validate()?;
         self.surface.validate()?;
-        self.accuracy.validate()
+        self.accuracy.validate()?;
+        crate::config::within_range(self, "", 0)
     }
 }
 

@@ -373,14 +373,18 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("variant.toml: sim.dwell.tolerance_n"));
     // Named with its table in the pipeline file, found before any stage: a perception value, a
-    // line whose sampling is astronomic, a sensor's noise past any sensor, a current faster than
-    // any sea (the last two failed in the simulation, after the plan's products).
+    // line whose sampling is astronomic, a depth and a sensor's noise past any scene or sensor, a
+    // current faster than any sea (the last three failed mid-run, after earlier products).
     for (extra, named) in [
         (
             "[perception.clean]\nvoxel_m = nan",
             "variant.toml: perception.clean.voxel_m",
         ),
         ("[plan.line]\nlength_m = 1e6", "variant.toml: plan.line.length_m"),
+        (
+            "[plan.line]\ndepth_m = 1e300",
+            "variant.toml: plan.line.depth_m: 1e300 is beyond",
+        ),
         (
             "[sim.sensors]\ntorque_noise_nm_per_rt_hz = 1e300",
             "variant.toml: sim.sensors.torque_noise_nm_per_rt_hz: 1e300 is beyond",

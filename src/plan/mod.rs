@@ -106,7 +106,8 @@ impl PlanConfig {
         project::bounded_count("line.length_m", self.line.length_m, self.projection.step_m)?;
         self.tool.validate()?;
         self.timing.validate()?;
-        self.frames.validate()
+        self.frames.validate()?;
+        crate::config::within_range(self, "", 0)
     }
 }
 
