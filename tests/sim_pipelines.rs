@@ -691,3 +691,36 @@ fn a_force_beyond_the_thrusters_is_a_failed_run() {
         "{err}"
     );
 }
+
+/// The `config.toml` a `uvms run` writes configures `uvms sim` as it is (its `[sim]` and
+/// `[plan.frames]`): the run's trajectory simulated again gives the run's figures, but for the
+/// trajectory file's rounding (positions to the nanometre).
+#[test]
+fn a_runs_config_reruns_its_simulation() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, summary) = bottle_run();
+    let again = dir.path().join("again");
+    let o = run(&[
+        "--json",
+        "sim",
+        "--trajectory",
+        out.join("trajectory.csv").to_str().unwrap(),
+        "--config",
+        out.join("config.toml").to_str().unwrap(),
+        "--out",
+        again.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rerun: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let sim = &summary["sim"];
+    for (key, tolerance) in [
+        ("force_settled_mean_n", 0.01),
+        ("force_overshoot_n", 0.05),
+        ("tool_deviation_max_m", 5e-5),
+        ("auv_deviation_max_m", 5e-5),
+        ("first_contact_s", 0.0015),
+    ] {
+        let (a, b) = (sim[key].as_f64().unwrap(), rerun[key].as_f64().unwrap());
+        assert!((a - b).abs() <= tolerance, "{key}: run {a}, rerun {b}");
+    }
+}

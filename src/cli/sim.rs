@@ -284,13 +284,35 @@ fn check_frames(trajectory: &Trajectory, file: &Path, cfg: &SimCommandConfig) ->
     ))
 }
 
+/// `uvms sim`'s configuration: a file of `[sim]` and `[frames]`, or a pipeline file (the
+/// `config.toml` a `uvms run` writes too), whose `[sim]` and `[plan.frames]` are taken; paths
+/// relative to the file.
+fn load_config(path: Option<&Path>) -> Result<SimCommandConfig> {
+    let Some(path) = path else {
+        return Ok(SimCommandConfig::default());
+    };
+    let text = crate::config::read_text(path, "a TOML file")?;
+    let pipeline = text
+        .parse::<toml::Table>()
+        .is_ok_and(|t| t.contains_key("input") || t.contains_key("plan"));
+    if pipeline {
+        let p = super::run::Pipeline::load(path)?;
+        return Ok(SimCommandConfig {
+            sim: p.sim,
+            frames: p.plan.frames,
+        });
+    }
+    let mut cfg: SimCommandConfig = crate::config::from_toml_str(&text, &path.display().to_string())?;
+    resolve_paths(&mut cfg.sim, Some(path));
+    Ok(cfg)
+}
+
 /// Runs `uvms sim`.
 ///
 /// # Errors
 /// As [`sim_stage`], and [`Error::Input`] for a bad trajectory file.
 pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
-    let mut cfg: SimCommandConfig = crate::config::load(args.config.as_deref())?;
-    resolve_paths(&mut cfg.sim, args.config.as_deref());
+    let mut cfg = load_config(args.config.as_deref())?;
     if let Some(s) = &args.surface {
         cfg.sim.surface = Some(relative_to(None, s));
     }
