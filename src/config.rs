@@ -28,9 +28,23 @@ pub fn from_toml_str<T: DeserializeOwned + Serialize>(text: &str, origin: &str) 
     // serde's own messages ("invalid length 2, expected an array of length 3", "expected
     // usize") do not say which.
     let value: T = serde_path_to_error::deserialize(document).map_err(|e| {
-        let key = e.path().to_string();
+        // Elements counted from 1, as a reader counts `[[arm.links]]` tables.
+        let mut key = String::new();
+        for segment in e.path().iter() {
+            match segment {
+                serde_path_to_error::Segment::Seq { index } => key += &format!("[{}]", index + 1),
+                serde_path_to_error::Segment::Map { key: k }
+                | serde_path_to_error::Segment::Enum { variant: k } => {
+                    if !key.is_empty() {
+                        key.push('.');
+                    }
+                    key += k;
+                }
+                serde_path_to_error::Segment::Unknown => key += ".?",
+            }
+        }
         let inner = e.into_inner();
-        let message = if key.is_empty() || key == "." || inner.message().contains(&format!("`{key}`")) {
+        let message = if key.is_empty() || inner.message().contains(&format!("`{key}`")) {
             inner.message().to_string()
         } else {
             format!("{key}: {}", inner.message())
@@ -51,12 +65,13 @@ pub fn from_toml_str<T: DeserializeOwned + Serialize>(text: &str, origin: &str) 
     Ok(value)
 }
 
-/// The line (from 1) that sets `key` (`plan.frames.vehicle_in_world.xyz_m`, `arm.links[2].dh`;
-/// an index after the last name is the array's element, not a table's): under its table's
+/// The line (from 1) that sets `key` (`plan.frames.vehicle_in_world.xyz_m`, `arm.links[2].dh`,
+/// elements counted from 1; an index after the last name is the array's element, not a
+/// table's): under its table's
 /// header, or as a dotted key. A key inside an inline table gives the first line setting a key
 /// of its own name.
 fn line_of_key(text: &str, key: &str) -> Option<usize> {
-    // The key without its own element index: `a.b[1]` → `a.b`.
+    // The key without its own element index: `a.b[2]` → `a.b`.
     let key = match key.rfind('[') {
         Some(i) if !key[i..].contains('.') => &key[..i],
         _ => key,
@@ -81,7 +96,7 @@ fn line_of_key(text: &str, key: &str) -> Option<usize> {
                     1
                 }
             };
-            table = format!("{name}[{}]", n - 1);
+            table = format!("{name}[{n}]");
         } else if let Some(name) = l.strip_prefix('[').and_then(|r| r.split(']').next()) {
             let name = name.trim();
             // A sub-table of an array of tables belongs to its latest element.
@@ -90,7 +105,7 @@ fn line_of_key(text: &str, key: &str) -> Option<usize> {
                 .find_map(|(a, n)| {
                     name.strip_prefix(a.as_str())
                         .and_then(|r| r.strip_prefix('.'))
-                        .map(|r| format!("{a}[{}].{r}", n - 1))
+                        .map(|r| format!("{a}[{n}].{r}"))
                 })
                 .unwrap_or_else(|| name.to_string());
         } else if let Some(rest) = key.strip_prefix(table.as_str())
@@ -126,7 +141,7 @@ fn value_kept_short(given: &toml::Value, kept: &toml::Value, key: String) -> Opt
             .iter()
             .zip(k)
             .enumerate()
-            .find_map(|(i, (g, k))| value_kept_short(g, k, format!("{key}[{i}]"))),
+            .find_map(|(i, (g, k))| value_kept_short(g, k, format!("{key}[{}]", i + 1))),
         _ => None,
     }
 }
@@ -190,12 +205,12 @@ pub const MAX_VALUE: f64 = 1e9;
 
 /// `Ok` if every real number of `value` (serialised as TOML; counts and seeds are integers and
 /// left out) is within ±[`MAX_VALUE`], else an input error naming the first beyond by its key
-/// under `prefix` (`arm.links[2].mass`: array elements counted from `first_index`).
+/// under `prefix` (`arm.links[2].mass`, elements counted from 1).
 ///
 /// # Errors
 /// [`Error::Input`] naming the key.
-pub fn within_range<T: Serialize>(value: &T, prefix: &str, first_index: usize) -> Result<()> {
-    fn walk(v: &toml::Value, key: &str, first: usize) -> Option<(String, f64)> {
+pub fn within_range<T: Serialize>(value: &T, prefix: &str) -> Result<()> {
+    fn walk(v: &toml::Value, key: &str) -> Option<(String, f64)> {
         let sub = |k: &str| {
             if key.is_empty() {
                 k.to_string()
@@ -205,18 +220,15 @@ pub fn within_range<T: Serialize>(value: &T, prefix: &str, first_index: usize) -
         };
         match v {
             toml::Value::Float(x) if x.abs() > MAX_VALUE => Some((key.to_string(), *x)),
-            toml::Value::Table(t) => t.iter().find_map(|(k, v)| walk(v, &sub(k), first)),
+            toml::Value::Table(t) => t.iter().find_map(|(k, v)| walk(v, &sub(k))),
             toml::Value::Array(a) => a
                 .iter()
                 .enumerate()
-                .find_map(|(i, v)| walk(v, &format!("{key}[{}]", i + first), first)),
+                .find_map(|(i, v)| walk(v, &format!("{key}[{}]", i + 1))),
             _ => None,
         }
     }
-    match toml::Value::try_from(value)
-        .ok()
-        .and_then(|v| walk(&v, "", first_index))
-    {
+    match toml::Value::try_from(value).ok().and_then(|v| walk(&v, "")) {
         Some((key, v)) => Err(Error::input(
             format!("{prefix}{key}"),
             format!(
@@ -320,13 +332,13 @@ mod tests {
             ),
             (
                 "[[rows]]\ninertia = [[1.0, 0.0], [0.0, 1.0, 7.0]]\n",
-                "rows[0].inertia[1] has 3 values, 2 expected",
+                "rows[1].inertia[2] has 3 values, 2 expected",
                 2,
             ),
             // The line under the key's own table, not the first line setting a key of its name.
             (
                 "[inner]\nxyz_m = [1.0, 2.0, 3.0]\n[[rows]]\nxyz_m = [1.0, 2.0, 3.0]\n[[rows]]\nradius_m = 1.0\nxyz_m = [1.0, 2.0, 3.0, 4.0]\n",
-                "rows[1].xyz_m has 4 values",
+                "rows[2].xyz_m has 4 values",
                 7,
             ),
             // Too short and of the wrong type or sign: serde's message, with the key.
@@ -338,7 +350,7 @@ mod tests {
             ("seed = -1\n", "seed: invalid value: integer `-1`", 1),
             (
                 "[[rows]]\n[[rows]]\nradius_m = \"1\"\n",
-                "rows[1].radius_m: invalid type",
+                "rows[2].radius_m: invalid type",
                 3,
             ),
         ] {

@@ -588,7 +588,7 @@ impl UvmsModel {
                 Err(bad(field, "must be finite numbers"))
             }
         };
-        crate::config::within_range(self, &format!("{origin}: "), 1)?;
+        crate::config::within_range(self, &format!("{origin}: "))?;
         let e = &self.environment;
         finite(
             "environment",

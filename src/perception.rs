@@ -177,7 +177,7 @@ impl PerceptionConfig {
         self.register.validate()?;
         self.surface.validate()?;
         self.accuracy.validate()?;
-        crate::config::within_range(self, "", 0)
+        crate::config::within_range(self, "")
     }
 }
 

@@ -107,7 +107,7 @@ impl PlanConfig {
         self.tool.validate()?;
         self.timing.validate()?;
         self.frames.validate()?;
-        crate::config::within_range(self, "", 0)
+        crate::config::within_range(self, "")
     }
 }
 

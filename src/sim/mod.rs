@@ -342,7 +342,7 @@ impl SimConfig {
             ));
         }
         // What the checks above leave unbounded (noise, gains, stiffness...).
-        crate::config::within_range(self, "sim.", 0)
+        crate::config::within_range(self, "sim.")
     }
 }
 
