@@ -180,17 +180,23 @@ pub fn read_text(path: &Path, what: &str) -> Result<String> {
 /// A value for a message: as written for everyday magnitudes, in exponent form beyond them
 /// (`1e300`, not three hundred digits).
 pub fn shown(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&v.abs()) {
+    if everyday(v) {
         format!("{v}")
     } else {
         format!("{v:e}")
     }
 }
 
+/// Whether `v` is written out in full in a message (zero, not finite, or of an everyday
+/// magnitude) rather than in exponent form.
+fn everyday(v: f64) -> bool {
+    v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&v.abs())
+}
+
 /// [`shown`] with `decimals` decimals for everyday magnitudes (a position in metres to the
 /// millimetre), in exponent form beyond them.
 pub fn shown_to(v: f64, decimals: usize) -> String {
-    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&v.abs()) {
+    if everyday(v) {
         format!("{v:.decimals$}")
     } else {
         format!("{v:.3e}")

@@ -636,30 +636,40 @@ fn a_contact_operation_that_never_touches_is_a_failed_run() {
     );
 }
 
+/// `uvms sim` on the bottle run's trajectory with the configuration `config` into `out`, and
+/// `extra` arguments.
+fn sim_bottle_trajectory(config: &Path, out: &Path, extra: &[&str]) -> Output {
+    let trajectory = bottle_run().0.join("trajectory.csv");
+    let args = [
+        "sim",
+        "--trajectory",
+        trajectory.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    run(&[&args[..], extra].concat())
+}
+
 /// `uvms sim` places a surface given in the scan frame by the configuration's `[frames]`: other
 /// frames than the plan's (its trajectory's note) are bad input, not a run along a surface that
 /// is elsewhere.
 #[test]
 fn a_trajectory_planned_with_other_frames_is_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let (out, _) = bottle_run();
     let cfg = dir.path().join("frames.toml");
     std::fs::write(
         &cfg,
         "[frames.camera_in_vehicle]\nxyz_m = [0.6, 0.0, 0.31]\nrpy_deg = [30.0, 0.0, 90.0]\n",
     )
     .unwrap();
-    let o = run(&[
-        "sim",
-        "--trajectory",
-        out.join("trajectory.csv").to_str().unwrap(),
-        "--surface",
-        repo("data/scans/bottle/scene_mesh.ply").to_str().unwrap(),
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        dir.path().join("o").to_str().unwrap(),
-    ]);
+    let surface = repo("data/scans/bottle/scene_mesh.ply");
+    let o = sim_bottle_trajectory(
+        &cfg,
+        &dir.path().join("o"),
+        &["--surface", surface.to_str().unwrap()],
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
@@ -700,16 +710,7 @@ fn a_runs_config_reruns_its_simulation() {
     let dir = tempfile::tempdir().unwrap();
     let (out, summary) = bottle_run();
     let again = dir.path().join("again");
-    let o = run(&[
-        "--json",
-        "sim",
-        "--trajectory",
-        out.join("trajectory.csv").to_str().unwrap(),
-        "--config",
-        out.join("config.toml").to_str().unwrap(),
-        "--out",
-        again.to_str().unwrap(),
-    ]);
+    let o = sim_bottle_trajectory(&out.join("config.toml"), &again, &["--json"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rerun: Value = serde_json::from_slice(&o.stdout).unwrap();
     let sim = &summary["sim"];

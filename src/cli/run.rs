@@ -11,7 +11,7 @@
 
 use super::check::init_file;
 use super::plan::{PlanCommandConfig, PlanInputs, plan_stage};
-use super::sim::{load_sim_inputs, resolve_paths, sim_stage};
+use super::sim::{load_sim_inputs, resolve_paths, sim_stage, surface_file};
 use super::{Ctx, Report};
 use crate::config::relative_to;
 use crate::error::{Error, Result};
@@ -83,12 +83,7 @@ impl Pipeline {
             .map_err(|e| e.in_table(&origin, "perception."))?;
         p.plan.validate().map_err(|e| e.in_table(&origin, "plan."))?;
         p.sim.validate().map_err(|e| e.in_table(&origin, "sim."))?;
-        if p.sim.surface.is_none() {
-            return Err(Error::input(
-                format!("{origin}: sim.surface"),
-                "the true surface the tool touches is missing (a PLY mesh, e.g. scene_mesh.ply of uvms synth)",
-            ));
-        }
+        surface_file(&p.sim).map_err(|e| e.in_table(&origin, "sim."))?;
         Ok(p)
     }
 }

@@ -18,8 +18,8 @@ use crate::model::UvmsModel;
 use crate::output::OutDir;
 use crate::plot::{to_png, to_svg};
 use crate::sim::record::{figures, write_csv};
-use crate::sim::{ContactAsked, SimConfig, SimSummary, SurfaceFrame, check_plant_model, simulate};
-use crate::trajectory::Trajectory;
+use crate::sim::{SimConfig, SimSummary, SurfaceFrame, check_plant_model, simulate};
+use crate::trajectory::{Phase, Trajectory};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -142,6 +142,19 @@ pub struct SimInputs {
     model: UvmsModel,
 }
 
+/// The true surface's file, `sim.surface`.
+///
+/// # Errors
+/// [`Error::Input`] naming `sim.surface` when it is not given.
+pub fn surface_file(cfg: &SimConfig) -> Result<&Path> {
+    cfg.surface.as_deref().ok_or_else(|| {
+        Error::input(
+            "sim.surface",
+            "the true surface the tool touches is needed (a PLY mesh, e.g. scene_mesh.ply of uvms synth)",
+        )
+    })
+}
+
 /// Checks the configuration and reads the simulation's files, before any stage writes: the
 /// surface a mesh, the model's arm one the analytic IK solves.
 ///
@@ -150,12 +163,7 @@ pub struct SimInputs {
 pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs> {
     cfg.validate()?;
     frames.validate()?;
-    let surface_file = cfg.surface.as_deref().ok_or_else(|| {
-        Error::input(
-            "sim.surface",
-            "the true surface the tool touches is needed (a PLY mesh, e.g. scene_mesh.ply of uvms synth)",
-        )
-    })?;
+    let surface_file = surface_file(cfg)?;
     let mesh = read_mesh(surface_file)?;
     if mesh.triangles.is_empty() {
         return Err(Error::input(
@@ -212,7 +220,8 @@ pub fn sim_stage(
     }
     let mut summary = serde_json::to_value(&run.summary).map_err(|e| Error::failed("summary", e))?;
     let failure = untouched(
-        run.contact_asked.as_ref(),
+        trajectory,
+        run.contact_depth_m,
         run.summary.figures.first_contact_s,
         cfg,
     );
@@ -234,27 +243,39 @@ pub fn sim_stage(
 }
 
 /// A failed run when the trajectory's contact phase asks the tool to touch the surface (a force,
-/// or points inside the material) and it never did (a surface that is not the one the trajectory
-/// was planned on, or in another frame): the figures of such a run describe no contact
-/// operation. A phase that asks for no force along or above the surface may skim it untouched.
-fn untouched(asked: Option<&ContactAsked>, first_contact_s: Option<f64>, cfg: &SimConfig) -> Option<Error> {
-    let a = asked?;
-    let asks_touch = a.force_n > 0.0 || a.deepest_m > 0.0;
-    (first_contact_s.is_none() && asks_touch).then(|| {
+/// or points inside the material, `depth_m` deep at most) and it never did (a surface that is
+/// not the one the trajectory was planned on, or in another frame): the figures of such a run
+/// describe no contact operation. A phase that asks for no force along or above the surface may
+/// skim it untouched.
+fn untouched(
+    trajectory: &Trajectory,
+    depth_m: Option<f64>,
+    first_contact_s: Option<f64>,
+    cfg: &SimConfig,
+) -> Option<Error> {
+    let depth = depth_m?;
+    let (from, to) = (
+        trajectory.phase(Phase::Contact).next()?.t,
+        trajectory.phase(Phase::Contact).last()?.t,
+    );
+    let force = trajectory
+        .phase(Phase::Contact)
+        .map(|s| s.force)
+        .fold(0.0, f64::max);
+    (first_contact_s.is_none() && (force > 0.0 || depth > 0.0)).then(|| {
         let frame = match cfg.surface_frame {
             SurfaceFrame::Scan => "scan",
             SurfaceFrame::World => "world",
         };
-        let asks = if a.force_n > 0.0 {
-            format!("asks for up to {:.1} N", a.force_n)
+        let asks = if force > 0.0 {
+            format!("asks for up to {force:.1} N")
         } else {
-            format!("runs up to {:.1} mm inside the material", a.deepest_m * 1e3)
+            format!("runs up to {:.1} mm inside the material", depth * 1e3)
         };
         Error::failed(
             "sim",
             format!(
-                "the tool never touched the surface, though the trajectory's contact phase (from {:.2} to {:.2} s) {asks} (the products are written): is sim.surface (in the {frame} frame, sim.surface_frame) the surface the trajectory was planned on?",
-                a.from_s, a.to_s
+                "the tool never touched the surface, though the trajectory's contact phase (from {from:.2} to {to:.2} s) {asks} (the products are written): is sim.surface (in the {frame} frame, sim.surface_frame) the surface the trajectory was planned on?"
             ),
         )
     })
@@ -264,6 +285,9 @@ fn untouched(asked: Option<&ContactAsked>, first_contact_s: Option<f64>, cfg: &S
 /// must be the frames the trajectory was planned with (its note), or the tool runs along a
 /// surface that is elsewhere.
 fn check_frames(trajectory: &Trajectory, file: &Path, cfg: &SimCommandConfig) -> Result<()> {
+    if cfg.sim.surface_frame == SurfaceFrame::World {
+        return Ok(());
+    }
     let origin = file.display().to_string();
     let Some(planned) = trajectory.planned_t_world_scan(&origin)? else {
         return Ok(());
@@ -271,7 +295,7 @@ fn check_frames(trajectory: &Trajectory, file: &Path, cfg: &SimCommandConfig) ->
     let used = cfg.frames.t_world_scan();
     let moved = (planned.translation.vector - used.translation.vector).norm();
     let turned = planned.rotation.angle_to(&used.rotation);
-    if cfg.sim.surface_frame == SurfaceFrame::World || (moved <= 1e-6 && turned <= 1e-6) {
+    if moved <= 1e-6 && turned <= 1e-6 {
         return Ok(());
     }
     Err(Error::input(

@@ -379,42 +379,10 @@ pub struct SimOutput {
     pub rows: Vec<Row>,
     /// The figures.
     pub summary: SimSummary,
-    /// What the trajectory's contact phase asks of the surface; `None` without one.
-    pub contact_asked: Option<ContactAsked>,
-}
-
-/// What a trajectory's contact phase asks of the true surface: whether the tool has to touch it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ContactAsked {
-    /// The phase's first and last instants, s.
-    pub from_s: f64,
-    /// See `from_s`.
-    pub to_s: f64,
-    /// The largest force it asks for, N.
-    pub force_n: f64,
-    /// How deep its deepest point lies in the material, m (negative when every point is
-    /// outside: minus the least distance from the surface).
-    pub deepest_m: f64,
-}
-
-impl ContactAsked {
-    /// Of `trajectory`'s contact phase against `contact`'s surface.
-    fn of(trajectory: &Trajectory, contact: &mut Contact) -> Option<Self> {
-        let mut phase = trajectory.samples.iter().filter(|s| s.phase == Phase::Contact);
-        let first = phase.next()?;
-        let mut asked = ContactAsked {
-            from_s: first.t,
-            to_s: first.t,
-            force_n: first.force,
-            deepest_m: contact.depth(&first.position),
-        };
-        for s in phase {
-            asked.to_s = s.t;
-            asked.force_n = asked.force_n.max(s.force);
-            asked.deepest_m = asked.deepest_m.max(contact.depth(&s.position));
-        }
-        Some(asked)
-    }
+    /// How deep the trajectory's deepest contact-phase point lies in the true surface's
+    /// material, m (negative when every one is outside: minus the least distance from the
+    /// surface); `None` without a contact phase.
+    pub contact_depth_m: Option<f64>,
 }
 
 /// Simulates the contact operation along `trajectory` (world frame) against the true `surface`
@@ -770,7 +738,10 @@ pub fn simulate(
     Ok(SimOutput {
         rows: rec.into_rows(),
         summary,
-        contact_asked: ContactAsked::of(trajectory, &mut contact),
+        contact_depth_m: trajectory
+            .phase(Phase::Contact)
+            .map(|s| contact.depth(&s.position))
+            .reduce(f64::max),
     })
 }
 
