@@ -26,7 +26,9 @@ fn run_in(dir: &Path, args: &[&str]) -> Output {
         .unwrap()
 }
 
-/// Runs a pipeline file (a relative path from the repository's folder); its summary.
+/// Runs a pipeline file (a relative path from the repository's folder); its summary. A run
+/// whose contact operation failed (exit 1, its products written) has the reason under
+/// `sim.failure`, and its one-line message on stderr.
 fn run_pipeline(pipeline: &Path, out: &Path) -> Value {
     let o = run(&[
         "--json",
@@ -36,8 +38,16 @@ fn run_pipeline(pipeline: &Path, out: &Path) -> Value {
         "--out",
         out.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    serde_json::from_slice(&o.stdout).unwrap()
+    let err = String::from_utf8_lossy(&o.stderr);
+    let summary: Value = serde_json::from_slice(&o.stdout).unwrap_or_else(|_| panic!("{err}"));
+    match summary["sim"]["failure"].as_str() {
+        None => assert!(o.status.success(), "{err}"),
+        Some(failure) => {
+            assert_eq!(o.status.code(), Some(1), "{err}");
+            assert!(err.lines().count() == 1 && err.contains(failure), "{err}");
+        }
+    }
+    summary
 }
 
 /// The bottle-cleaning pipeline with extra TOML appended (paths made absolute).
@@ -250,7 +260,8 @@ fn soil_sampling_end_to_end() {
 /// Each ablation is measurably worse on the figure its block protects, against the full system
 /// on the same seed: without the open loop of eq. (17) the manipulator's reaction pushes the
 /// vehicle off station (‖r‖); without the trajectory correction of eq. (18) the tool drifts
-/// with the vehicle (‖e‖); without the force loop of eq. (14) the force is not held.
+/// with the vehicle (‖e‖); without the force loop of eq. (14) the force is not held, and the
+/// tool, once it has touched, leaves the surface: a failed contact operation (exit 1).
 #[test]
 fn ablations_are_worse_on_the_figure_their_block_protects() {
     let runs = variants(&[
@@ -259,6 +270,16 @@ fn ablations_are_worse_on_the_figure_their_block_protects() {
         "[sim.scenario]\nforce_loop = false".into(),
     ]);
     let f = |run: &Value, key: &str| run[key].as_f64().unwrap();
+    assert!(runs[0]["failure"].is_null() && runs[1]["failure"].is_null());
+    let lost = f(&runs[2], "contact_lost_s");
+    assert!(
+        lost > 1.0
+            && runs[2]["failure"].as_str().is_some_and(
+                |e| e.contains("the tool lost the surface") && e.contains(&format!("{lost:.3} s"))
+            ),
+        "{}",
+        runs[2]
+    );
     let full = &bottle_run().1["sim"];
     let r = f(&runs[0], "auv_deviation_max_m");
     assert!(

@@ -63,8 +63,11 @@ pub fn sim_text(s: &SimSummary) -> String {
     let [x, y, z] = s.hover_position_m;
     let _ = writeln!(
         t,
-        "hover        [{x:.3}, {y:.3}, {z:.3}] m, heading {:.1}°, worst manipulability {:.4}",
-        s.hover_yaw_deg, s.hover_manipulability
+        "hover        [{x:.3}, {y:.3}, {z:.3}] m, heading {:.1}°, worst manipulability {:.4}, contact held with {:.0} % of a thruster's thrust and {:.0} % of a drive's torque",
+        s.hover_yaw_deg,
+        s.hover_manipulability,
+        100.0 * s.hover_thrust_utilisation,
+        100.0 * s.hover_drive_utilisation
     );
     let _ = writeln!(
         t,
@@ -185,7 +188,7 @@ pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs
 }
 
 /// What [`sim_stage`] gives: the summary (as JSON), the readable account, and why the contact
-/// operation failed although the products are written (see [`untouched`]).
+/// operation failed although the products are written (see [`operation_failure`]).
 pub struct SimStage {
     /// The simulation's summary.
     pub summary: serde_json::Value,
@@ -219,12 +222,7 @@ pub fn sim_stage(
         out.write_bytes(&format!("{name}.png"), &to_png(&fig, 1200, 900))?;
     }
     let mut summary = serde_json::to_value(&run.summary).map_err(|e| Error::failed("summary", e))?;
-    let failure = untouched(
-        trajectory,
-        run.contact_depth_m,
-        run.summary.figures.first_contact_s,
-        cfg,
-    );
+    let failure = operation_failure(trajectory, run.contact_depth_m, &run.summary, cfg);
     if let (Some(e), Some(map)) = (&failure, summary.as_object_mut()) {
         // The summary says it too: a script reading it sees the failure, not just figures.
         map.insert("failure".into(), e.to_string().into());
@@ -245,12 +243,14 @@ pub fn sim_stage(
 /// A failed run when the trajectory's contact phase asks the tool to touch the surface (a force,
 /// or points inside the material, `depth_m` deep at most) and it never did (a surface that is
 /// not the one the trajectory was planned on, or in another frame): the figures of such a run
-/// describe no contact operation. A phase that asks for no force along or above the surface may
-/// skim it untouched.
-fn untouched(
+/// describe no contact operation; or when, once touched, the tool lost the surface during the
+/// dwell or the contact phase (the vehicle or the drives could not hold the contact, no force
+/// loop): the operation was not carried out along the whole path. A phase that asks for no
+/// force along or above the surface may skim it untouched, and leave it.
+fn operation_failure(
     trajectory: &Trajectory,
     depth_m: Option<f64>,
-    first_contact_s: Option<f64>,
+    summary: &SimSummary,
     cfg: &SimConfig,
 ) -> Option<Error> {
     let depth = depth_m?;
@@ -262,20 +262,36 @@ fn untouched(
         .phase(Phase::Contact)
         .map(|s| s.force)
         .fold(0.0, f64::max);
-    (first_contact_s.is_none() && (force > 0.0 || depth > 0.0)).then(|| {
+    if force <= 0.0 && depth <= 0.0 {
+        return None;
+    }
+    let asks = if force > 0.0 {
+        format!("asks for up to {force:.1} N")
+    } else {
+        format!("runs up to {:.1} mm inside the material", depth * 1e3)
+    };
+    let figures = &summary.figures;
+    let Some(first) = figures.first_contact_s else {
         let frame = match cfg.surface_frame {
             SurfaceFrame::Scan => "scan",
             SurfaceFrame::World => "world",
         };
-        let asks = if force > 0.0 {
-            format!("asks for up to {force:.1} N")
-        } else {
-            format!("runs up to {:.1} mm inside the material", depth * 1e3)
-        };
-        Error::failed(
+        return Some(Error::failed(
             "sim",
             format!(
                 "the tool never touched the surface, though the trajectory's contact phase (from {from:.2} to {to:.2} s) {asks} (the products are written): is sim.surface (in the {frame} frame, sim.surface_frame) the surface the trajectory was planned on?"
+            ),
+        ));
+    };
+    (figures.contact_lost_s > 0.0).then(|| {
+        Error::failed(
+            "sim",
+            format!(
+                "the tool lost the surface for {:.3} s in all after its first contact at {first:.2} s, though the trajectory's contact phase {asks} (the products are written; the thrusters saturated in {:.1} % of the control periods, {} tool targets out of the arm's reach, ‖e‖ up to {:.1} mm)",
+                figures.contact_lost_s,
+                100.0 * summary.thrust_saturated_fraction,
+                summary.unreachable_steps,
+                1e3 * figures.tool_deviation_max_m
             ),
         )
     })

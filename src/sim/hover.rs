@@ -14,18 +14,24 @@
 //! the thrusters must cancel that force at the tool's lever, `[F; p × F]` in `C`; the largest
 //! `|T_j|/T_max` of that allocation is the candidate's thrust utilisation (a horizontal drag
 //! across the vehicle loads the roll axis, which only two vertical thrusters 2h apart
-//! control; along it, the two surge thrusters and the pitch axis). Among the candidates that
-//! reach, those within `max_thrust_utilisation` are preferred, and of them the one with the
-//! largest worst-case manipulability `min |det J(q)|` (Yoshikawa, in closed form for the
-//! PUMA class) wins, the less utilised of two within a millionth of each other (if none is
-//! within, the least utilised); a second, finer grid around it refines the choice. No candidate
-//! reaching the whole trajectory is an error that says how far the best got, and so is a
-//! winner whose thrust utilisation exceeds 1 (the least utilised when none is within the limit:
-//! no candidate's thrusters can hold the contact).
+//! control; along it, the two surge thrusters and the pitch axis). The drives must hold it
+//! too: the static joint torques that press the tool there with that force and carry the arm's
+//! weight in water (the inverse dynamics at rest, the vehicle level), of which the largest
+//! `|τ_i|/τ_max,i` is the candidate's drive utilisation. Its load is the larger of the two
+//! utilisations, each as a fraction of its limit (`max_thrust_utilisation`,
+//! `max_drive_utilisation`). Among the candidates that reach, those within both limits (load at
+//! most 1) are preferred, and of them the one with the largest worst-case manipulability
+//! `min |det J(q)|` (Yoshikawa, in closed form for the PUMA class) wins, the less loaded of two
+//! within a millionth of each other (if none is within, the least loaded); a second, finer grid
+//! around it refines the choice. No candidate reaching the whole trajectory is an error that
+//! says how far the best got, and so is a winner whose thrusters or drives would need more than
+//! they have (the least loaded when none is within the limits: no candidate can hold the
+//! contact).
 
-use crate::arm::{Arm, JointVector};
+use crate::arm::{Arm, BaseMotion, JointVector};
 use crate::config::{non_negative, positive, require, shown, shown_to};
 use crate::error::{Error, Result};
+use crate::spatial_algebra::Force;
 use crate::trajectory::{Phase, Trajectory};
 use crate::vehicle::thrusters::Thrusters;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
@@ -57,6 +63,9 @@ pub struct HoverConfig {
     pub drag_n: f64,
     /// Largest thrust utilisation (`|T_j|/T_max`) the contact may take.
     pub max_thrust_utilisation: f64,
+    /// Largest static drive utilisation (`|τ_i|/τ_max,i`) the contact may take: the rest is
+    /// the joint control's, for the arm's accelerations and friction.
+    pub max_drive_utilisation: f64,
 }
 
 impl Default for HoverConfig {
@@ -73,6 +82,7 @@ impl Default for HoverConfig {
             samples: 60,
             drag_n: 0.0,
             max_thrust_utilisation: 0.5,
+            max_drive_utilisation: 0.8,
         }
     }
 }
@@ -96,15 +106,25 @@ impl HoverConfig {
         non_negative("sim.hover.horizontal_range_m", self.horizontal_range_m)?;
         non_negative("sim.hover.min_clearance_m", self.min_clearance_m)?;
         non_negative("sim.hover.drag_n", self.drag_n)?;
-        positive("sim.hover.max_thrust_utilisation", self.max_thrust_utilisation)?;
-        require(
-            self.max_thrust_utilisation <= 1.0,
-            "sim.hover.max_thrust_utilisation",
-            format!(
-                "must be at most 1 (a fraction of the thrusters' thrust), got {}",
-                shown(self.max_thrust_utilisation)
+        for (key, value, of) in [
+            (
+                "sim.hover.max_thrust_utilisation",
+                self.max_thrust_utilisation,
+                "thrusters' thrust",
             ),
-        )?;
+            (
+                "sim.hover.max_drive_utilisation",
+                self.max_drive_utilisation,
+                "drives' torque",
+            ),
+        ] {
+            positive(key, value)?;
+            require(
+                value <= 1.0,
+                key,
+                format!("must be at most 1 (a fraction of the {of}), got {}", shown(value)),
+            )?;
+        }
         if self.samples < 2 || self.samples > 100_000 {
             return Err(Error::input("sim.hover.samples", "must be between 2 and 100000"));
         }
@@ -146,6 +166,10 @@ pub struct Hover {
     pub q_start: JointVector,
     /// The worst-case manipulability `min |det J|` along the trajectory.
     pub manipulability: f64,
+    /// The largest thrust utilisation of holding the contact (see the module docs).
+    pub thrust_utilisation: f64,
+    /// The largest static drive utilisation of holding the contact.
+    pub drive_utilisation: f64,
 }
 
 /// How far one candidate got.
@@ -155,21 +179,35 @@ struct Reach {
     reached: usize,
     manipulability: f64,
     /// The largest thrust utilisation of the contact over the reached samples.
-    utilisation: f64,
+    thrust: f64,
+    /// The largest static drive utilisation over the reached samples, the joint (0-based) and
+    /// its torque there, N·m.
+    drive: (f64, usize, f64),
 }
 
 /// Manipulabilities within this fraction of each other are equal: the arm's first joint takes
 /// up a turn of the vehicle about the vertical, so headings apart by a multiple of the search's
-/// step reach the trajectory with the same manipulability but for round-off, and the thrust
-/// utilisation decides between them.
+/// step reach the trajectory with the same manipulability but for round-off, and the load
+/// decides between them.
 const SAME_MANIPULABILITY: f64 = 1e-6;
 
 impl Reach {
+    /// The larger of the thrust and drive utilisations, each as a fraction of its limit in
+    /// `cfg` (NaN counts as over every limit).
+    fn load(&self, cfg: &HoverConfig) -> f64 {
+        let load = (self.thrust / cfg.max_thrust_utilisation).max(self.drive.0 / cfg.max_drive_utilisation);
+        if self.thrust.is_nan() || self.drive.0.is_nan() {
+            f64::INFINITY
+        } else {
+            load
+        }
+    }
+
     /// Whether `self` is a better candidate than `other` (see the module docs): more samples
-    /// reached; then within the utilisation limit; then, within it, the larger manipulability
-    /// and on a tie the lower utilisation, beyond it the lower utilisation.
-    fn beats(&self, other: &Reach, limit: f64) -> bool {
-        let within = |r: &Reach| r.utilisation <= limit;
+    /// reached; then within the limits; then, within them, the larger manipulability and on a
+    /// tie the lower load, beyond them the lower load.
+    fn beats(&self, other: &Reach, cfg: &HoverConfig) -> bool {
+        let within = |r: &Reach| r.load(cfg) <= 1.0;
         if (self.reached, within(self)) != (other.reached, within(other)) {
             return (self.reached, within(self)) > (other.reached, within(other));
         }
@@ -178,16 +216,16 @@ impl Reach {
         if within(self) && !tied {
             self.manipulability > other.manipulability
         } else {
-            self.utilisation < other.utilisation
+            self.load(cfg) < other.load(cfg)
         }
     }
 
     /// Whether a branch at `self` (going on to all `n` samples) could still beat `bar`: its
-    /// manipulability only falls and its utilisation only grows as it goes on, so once it,
-    /// reaching every sample as it is, does not beat a `bar` that reached every sample,
-    /// following it further changes nothing.
-    fn can_beat(&self, bar: Option<&Reach>, n: usize, limit: f64) -> bool {
-        bar.is_none_or(|b| b.reached < n || Reach { reached: n, ..*self }.beats(b, limit))
+    /// manipulability only falls and its load only grows as it goes on, so once it, reaching
+    /// every sample as it is, does not beat a `bar` that reached every sample, following it
+    /// further changes nothing.
+    fn can_beat(&self, bar: Option<&Reach>, n: usize, cfg: &HoverConfig) -> bool {
+        bar.is_none_or(|b| b.reached < n || Reach { reached: n, ..*self }.beats(b, cfg))
     }
 }
 
@@ -215,18 +253,36 @@ fn utilisation(
     thrusters.utilisation(&tau)
 }
 
+/// The largest static drive utilisation `|τ_i|/τ_max,i` at `q`, its joint and torque: the arm
+/// at rest on a base at rest (`base`), the environment pressing on the tool with `f_env`
+/// (base axes).
+fn drive_load(arm: &Arm, q: &JointVector, base: &BaseMotion, f_env: &Vector3<f64>) -> (f64, usize, f64) {
+    let zero = JointVector::zeros();
+    let tau = arm
+        .inverse_dynamics(q, &zero, &zero, base, Some(&Force::new(*f_env, Vector3::zeros())))
+        .tau;
+    (0..tau.len())
+        .map(|i| (tau[i].abs() / arm.links[i].torque_limit, i, tau[i]))
+        .fold(
+            (0.0, 0, 0.0),
+            |a, b| if b.0 > a.0 || b.0.is_nan() { b } else { a },
+        )
+}
+
 /// Follows each IK branch of the first target along `targets` (world tool poses, with the
-/// environment's expected force on the tool) for the vehicle at `t_world_body`; the best
-/// branch. A branch is given up as soon as it cannot beat `bar` (the best candidate so far).
+/// environment's expected force on the tool) for the vehicle at `t_world_body` in gravity `g`;
+/// the best branch. A branch is given up as soon as it cannot beat `bar` (the best candidate
+/// so far).
 fn follow(
     arm: &Arm,
     thrusters: &Thrusters,
     t_world_body: &Isometry3<f64>,
+    g: f64,
     targets: &[(Isometry3<f64>, Vector3<f64>)],
     cfg: &HoverConfig,
     bar: Option<&Reach>,
 ) -> Result<Option<Reach>> {
-    let (n, limit) = (targets.len(), cfg.max_thrust_utilisation);
+    let n = targets.len();
     let t_base_world = (t_world_body * arm.t_body_base()).inverse();
     if targets.is_empty() {
         return Ok(None);
@@ -247,6 +303,24 @@ fn follow(
         .iter()
         .map(|(t, f)| utilisation(thrusters, t_world_body, &t.translation.vector, f))
         .collect();
+    // The drives' static load where the tool is pressed (free of the surface, the arm at rest
+    // weighs on them far below their limits).
+    let base = BaseMotion::on_vehicle(
+        arm,
+        &t_world_body.rotation,
+        &Vector6::zeros(),
+        &Vector6::zeros(),
+        g,
+        &Vector3::zeros(),
+    );
+    let f_base: Vec<Vector3<f64>> = targets.iter().map(|(_, f)| t_base_world.rotation * f).collect();
+    let drive_at = |i: usize, q: &JointVector| {
+        if f_base[i] == Vector3::zeros() {
+            (0.0, 0, 0.0)
+        } else {
+            drive_load(arm, q, &base, &f_base[i])
+        }
+    };
     let mut best: Option<Reach> = None;
     for q0 in starts.as_slice() {
         let mut q = *q0;
@@ -254,10 +328,11 @@ fn follow(
             q_start: *q0,
             reached: 1,
             manipulability: arm.manipulability_at(&in_base[0], &q)?,
-            utilisation: loads[0],
+            thrust: loads[0],
+            drive: drive_at(0, &q),
         };
         for i in 1..n {
-            if !r.can_beat(bar, n, limit) {
+            if !r.can_beat(bar, n, cfg) {
                 break;
             }
             let Some(next) = arm.ik_nearest(&in_base[i], &q)? else {
@@ -268,22 +343,34 @@ fn follow(
             }
             q = next;
             r.manipulability = r.manipulability.min(arm.manipulability_at(&in_base[i], &q)?);
-            r.utilisation = r.utilisation.max(loads[i]);
+            r.thrust = r.thrust.max(loads[i]);
+            let drive = drive_at(i, &q);
+            if drive.0 > r.drive.0 || drive.0.is_nan() {
+                r.drive = drive;
+            }
             r.reached += 1;
         }
-        if best.as_ref().is_none_or(|b| r.beats(b, limit)) {
+        if best.as_ref().is_none_or(|b| r.beats(b, cfg)) {
             best = Some(r);
         }
     }
     Ok(best)
 }
 
-/// The hover point for `trajectory` (world frame) with the controller's `arm` and `thrusters`.
+/// The hover point for `trajectory` (world frame) with the controller's `arm` and `thrusters`
+/// in gravity `g` (m/s²).
 ///
 /// # Errors
 /// [`Error::Input`] for a bad configuration or an empty trajectory; [`Error::Failed`] (stage
-/// `hover`) if no candidate reaches the whole trajectory, saying which part is out of reach.
-pub fn choose(arm: &Arm, thrusters: &Thrusters, trajectory: &Trajectory, cfg: &HoverConfig) -> Result<Hover> {
+/// `hover`) if no candidate reaches the whole trajectory, saying which part is out of reach,
+/// or if the thrusters or the drives cannot hold the contact at any that does.
+pub fn choose(
+    arm: &Arm,
+    thrusters: &Thrusters,
+    g: f64,
+    trajectory: &Trajectory,
+    cfg: &HoverConfig,
+) -> Result<Hover> {
     cfg.validate()?;
     let n = trajectory.samples.len();
     if n == 0 {
@@ -324,10 +411,8 @@ pub fn choose(arm: &Arm, thrusters: &Thrusters, trajectory: &Trajectory, cfg: &H
     let mut consider = |pose: Isometry3<f64>, best: &mut Option<(Isometry3<f64>, Reach)>| -> Result<()> {
         evaluated += 1;
         let bar = best.as_ref().map(|(_, r)| r);
-        if let Some(r) = follow(arm, thrusters, &pose, &targets, cfg, bar)?
-            && best
-                .as_ref()
-                .is_none_or(|(_, b)| r.beats(b, cfg.max_thrust_utilisation))
+        if let Some(r) = follow(arm, thrusters, &pose, g, &targets, cfg, bar)?
+            && best.as_ref().is_none_or(|(_, b)| r.beats(b, cfg))
         {
             *best = Some((pose, r));
         }
@@ -378,18 +463,38 @@ pub fn choose(arm: &Arm, thrusters: &Thrusters, trajectory: &Trajectory, cfg: &H
             }
         }
     }
+    // What the trajectory asks of the contact, for the messages.
+    let asks = || {
+        let force = trajectory.samples.iter().map(|s| s.force).fold(0.0, f64::max);
+        format!(
+            "the trajectory asks for up to {} N, sim.hover.drag_n {} N",
+            shown_to(force, 1),
+            shown_to(cfg.drag_n, 1)
+        )
+    };
     match best {
-        // The least utilised of the candidates that reach, when even it needs more than the
-        // thrusters have: the run would saturate them at once.
-        Some((_, r)) if r.reached == targets.len() && (r.utilisation.is_nan() || r.utilisation > 1.0) => {
-            let force = trajectory.samples.iter().map(|s| s.force).fold(0.0, f64::max);
+        // The least loaded of the candidates that reach, when even it needs more than the
+        // thrusters or the drives have: the run would saturate them at once.
+        Some((_, r)) if r.reached == targets.len() && (r.thrust.is_nan() || r.thrust > 1.0) => {
             Err(Error::failed(
                 "hover",
                 format!(
-                    "the thrusters cannot hold the contact at any hover point searched that reaches the trajectory: the least utilised needs {} times the most loaded thruster's thrust (the trajectory asks for up to {} N, sim.hover.drag_n {} N)",
-                    shown_to(r.utilisation, 2),
-                    shown_to(force, 1),
-                    shown_to(cfg.drag_n, 1)
+                    "the thrusters cannot hold the contact at any hover point searched that reaches the trajectory: the least loaded needs {} times the most loaded thruster's thrust ({})",
+                    shown_to(r.thrust, 2),
+                    asks()
+                ),
+            ))
+        }
+        Some((_, r)) if r.reached == targets.len() && (r.drive.0.is_nan() || r.drive.0 > 1.0) => {
+            let (ratio, joint, tau) = r.drive;
+            Err(Error::failed(
+                "hover",
+                format!(
+                    "the drives cannot hold the contact at any hover point searched that reaches the trajectory: at the least loaded, joint {} needs {} N·m, {} times its torque limit ({})",
+                    joint + 1,
+                    shown_to(tau, 1),
+                    shown_to(ratio, 2),
+                    asks()
                 ),
             ))
         }
@@ -397,6 +502,8 @@ pub fn choose(arm: &Arm, thrusters: &Thrusters, trajectory: &Trajectory, cfg: &H
             t_world_body: pose,
             q_start: r.q_start,
             manipulability: r.manipulability,
+            thrust_utilisation: r.thrust,
+            drive_utilisation: r.drive.0,
         }),
         best => {
             let reached = best.map_or(0, |(_, r)| r.reached);
@@ -460,7 +567,7 @@ mod tests {
             yaw_step_deg: 90.0,
             ..HoverConfig::default()
         };
-        let h = choose(&mb.arm, &thrusters(), &traj, &cfg).unwrap();
+        let h = choose(&mb.arm, &thrusters(), 9.81, &traj, &cfg).unwrap();
         assert!(h.manipulability > 0.0);
         // Check it independently: every sample has an IK solution from the chosen pose.
         let t_base_world = (h.t_world_body * mb.arm.t_body_base()).inverse();
@@ -498,9 +605,70 @@ mod tests {
             drag_n: 70.0,
             ..HoverConfig::default()
         };
-        let h = choose(&mb.arm, &thrusters(), &traj, &cfg).unwrap();
+        let h = choose(&mb.arm, &thrusters(), 9.81, &traj, &cfg).unwrap();
         let x_body = h.t_world_body.rotation * Vector3::x();
         assert!(x_body.y.abs() > 0.7, "heading {x_body}");
+    }
+
+    /// The drives' static load: the torques that hold the arm's weight in water (the inverse
+    /// dynamics without a force) and press the tool, `−J_vᵀ f` for the environment's force `f`
+    /// on the tool (the Jacobian's virtual work, not the RNEA's force propagation).
+    #[test]
+    fn the_drive_load_is_the_weight_and_the_jacobians_transpose_of_the_force() {
+        let mb = Multibody::new(&UvmsModel::default()).unwrap();
+        let arm = &mb.arm;
+        let q = JointVector::new(0.3, 0.9, -2.0, 0.4, 0.6, -0.2);
+        let tilted = UnitQuaternion::from_euler_angles(0.1, -0.05, 1.0);
+        let base = BaseMotion::on_vehicle(
+            arm,
+            &tilted,
+            &Vector6::zeros(),
+            &Vector6::zeros(),
+            9.81,
+            &Vector3::zeros(),
+        );
+        let f = Vector3::new(20.0, -35.0, 50.0);
+        let zero = JointVector::zeros();
+        let weight = arm.inverse_dynamics(&q, &zero, &zero, &base, None).tau;
+        let tau = weight - arm.jacobian(&q).fixed_rows::<3>(0).transpose() * f;
+        let (ratio, joint, torque) = drive_load(arm, &q, &base, &f);
+        assert!((torque - tau[joint]).abs() < 1e-9, "{torque} vs {}", tau[joint]);
+        for i in 0..6 {
+            assert!(tau[i].abs() / arm.links[i].torque_limit <= ratio + 1e-12);
+        }
+        assert!((ratio - tau[joint].abs() / arm.links[joint].torque_limit).abs() < 1e-12);
+    }
+
+    /// Of the candidates that reach, one whose drives would take more than
+    /// `max_drive_utilisation` is passed over for one within it; drives too weak for the
+    /// contact at every candidate are a failed run naming the joint.
+    #[test]
+    fn the_drives_must_hold_the_contact() {
+        let mb = Multibody::new(&UvmsModel::default()).unwrap();
+        let traj = stroke(&mb, &Isometry3::identity(), 0.3);
+        let cfg = HoverConfig {
+            step_m: 0.15,
+            yaw_step_deg: 90.0,
+            ..HoverConfig::default()
+        };
+        let free = choose(&mb.arm, &thrusters(), 9.81, &traj, &cfg).unwrap();
+        assert!(free.drive_utilisation > 0.0 && free.drive_utilisation <= cfg.max_drive_utilisation);
+        let tight = HoverConfig {
+            max_drive_utilisation: 0.9 * free.drive_utilisation,
+            ..cfg
+        };
+        let h = choose(&mb.arm, &thrusters(), 9.81, &traj, &tight).unwrap();
+        assert!(h.drive_utilisation < free.drive_utilisation, "{h:?}");
+        assert!(h.manipulability <= free.manipulability, "{h:?}");
+        let mut weak = mb.arm.clone();
+        weak.links[1].torque_limit = 1.0;
+        let e = choose(&weak, &thrusters(), 9.81, &traj, &cfg).unwrap_err();
+        assert_eq!(e.exit_code(), 1);
+        assert!(
+            e.to_string().contains("the drives cannot hold the contact")
+                && e.to_string().contains("joint 2 needs"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -513,7 +681,7 @@ mod tests {
             yaw_step_deg: 90.0,
             ..HoverConfig::default()
         };
-        let e = choose(&mb.arm, &thrusters(), &traj, &cfg).unwrap_err();
+        let e = choose(&mb.arm, &thrusters(), 9.81, &traj, &cfg).unwrap_err();
         assert_eq!(e.exit_code(), 1);
         assert!(e.to_string().contains("out of reach"), "{e}");
     }

@@ -368,6 +368,12 @@ pub struct SimSummary {
     pub hover_yaw_deg: f64,
     /// Worst-case manipulability `|det J|` along the trajectory at the hover point.
     pub hover_manipulability: f64,
+    /// The largest fraction of a thruster's thrust that holding the planned contact takes
+    /// there (static, `sim.hover.drag_n` included).
+    pub hover_thrust_utilisation: f64,
+    /// The largest fraction of a drive's torque limit that holding the planned contact takes
+    /// there (static, the arm's weight in water included).
+    pub hover_drive_utilisation: f64,
     /// The ablation switches and the current of the run.
     pub scenario: Scenario,
 }
@@ -432,7 +438,7 @@ pub fn simulate(
     let arm = &ctrl.arm;
     let g = ctrl_model.environment.gravity;
     let allocator = Thrusters::new(&ctrl_model.thrusters)?;
-    let hover = hover::choose(arm, &allocator, trajectory, &cfg.hover)?;
+    let hover = hover::choose(arm, &allocator, g, trajectory, &cfg.hover)?;
     let h = hover.t_world_body;
     let mut plant = Plant::new(&plant_model, State::at_rest(h, hover.q_start), cfg.integrator)?;
     let mut contact = Contact::new(surface, &cfg.contact)?;
@@ -733,6 +739,8 @@ pub fn simulate(
         hover_position_m: [p.x, p.y, p.z],
         hover_yaw_deg: rpy.2.to_degrees(),
         hover_manipulability: hover.manipulability,
+        hover_thrust_utilisation: hover.thrust_utilisation,
+        hover_drive_utilisation: hover.drive_utilisation,
         scenario: cfg.scenario,
     };
     Ok(SimOutput {
