@@ -301,8 +301,8 @@ fn ablations_are_worse_on_the_figure_their_block_protects() {
 /// A 0.42 m/s sea current across the bottle (`[0.3, 0.3, 0]` m/s, world): the controllers
 /// estimate it from the stabilisation's thrust, so the water's drag on the arm goes into the
 /// IDP, not into the identified contact — the still-water figures hold (95 % within
-/// 0.36-0.37 N·m on seeds 1-3), and in a 0.2 m/s current rising across the links too.
-/// Assuming still water (`current_filter_s = 0`), the drag reads as some 6 N·m of external
+/// 0.36-0.37 N·m on seeds 1-3), in a 0.2 m/s current rising across the links too, and in a
+/// 0.8 m/s current from a station chosen for it (`[sim.hover] current_m_s`). Assuming still water (`current_filter_s = 0`), the drag reads as some 6 N·m of external
 /// moments and the force settles a newton low.
 #[test]
 fn a_sea_current_is_estimated_and_not_taken_for_contact() {
@@ -313,9 +313,18 @@ fn a_sea_current_is_estimated_and_not_taken_for_contact() {
         // Rising across the arm's links, whose drag then matches the vehicle's own: the held
         // station's fixed point must still settle.
         "[sim.scenario]\ncurrent_m_s = [0.0, 0.0, -0.2]".into(),
+        // 0.8 m/s, the station chosen for it: the hull faces along it (from the station
+        // chosen for still water the vehicle is blown off station).
+        "[sim.scenario]\ncurrent_m_s = [0.8, 0.0, 0.0]\n[sim.hover]\ncurrent_m_s = [0.8, 0.0, 0.0]".into(),
     ]);
     let f = |run: &Value, key: &str| run[key].as_f64().unwrap();
-    for estimated in [&runs[0], &runs[2]] {
+    let heading = f(&runs[3], "hover_yaw_deg").to_radians();
+    assert!(
+        heading.cos().abs() > 0.9,
+        "heading {} across 0.8 m/s",
+        heading.to_degrees()
+    );
+    for estimated in [&runs[0], &runs[2], &runs[3]] {
         let settled = f(estimated, "force_settled_mean_n");
         assert!((settled - 60.0).abs() <= 1.0, "settled {settled} N");
         let p95 = f(estimated, "moment_id_error_contact_p95_nm");

@@ -11,7 +11,9 @@
 //! samples (no flip of the wrist or elbow). The vehicle must also hold the contact: at each
 //! checked sample of the dwell and contact phases the tool is loaded with the planned force
 //! (`force` along `k`) and the expected resistance to its motion (`drag_n` against `x_G`), and
-//! the thrusters must cancel that force at the tool's lever, `[F; p × F]` in `C`; the largest
+//! the thrusters must cancel that force at the tool's lever, `[F; p × F]` in `C`, with the
+//! hull's drag in the sea current the station is chosen for (`current_m_s`, the controllers'
+//! model of the vehicle's damping; the arm's links add a few per cent); the largest
 //! `|T_j|/T_max` of that allocation is the candidate's thrust utilisation (a horizontal drag
 //! across the vehicle loads the roll axis, which only two vertical thrusters 2h apart
 //! control; along it, the two surge thrusters and the pitch axis). The drives must hold it
@@ -31,7 +33,8 @@
 use crate::arm::{Arm, BaseMotion, JointVector};
 use crate::config::{non_negative, positive, require, shown, shown_to};
 use crate::error::{Error, Result};
-use crate::spatial_algebra::Force;
+use crate::multibody::Multibody;
+use crate::spatial_algebra::{Force, Motion};
 use crate::trajectory::{Phase, Trajectory};
 use crate::vehicle::thrusters::Thrusters;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
@@ -66,6 +69,10 @@ pub struct HoverConfig {
     /// Largest static drive utilisation (`|τ_i|/τ_max,i`) the contact may take: the rest is
     /// the joint control's, for the arm's accelerations and friction.
     pub max_drive_utilisation: f64,
+    /// The sea current the station is chosen for (world, NED), m/s: the thrusters hold the
+    /// hull's drag in it too. The controllers do not know the scenario's current; this is what
+    /// the operator expects.
+    pub current_m_s: [f64; 3],
 }
 
 impl Default for HoverConfig {
@@ -83,6 +90,7 @@ impl Default for HoverConfig {
             drag_n: 0.0,
             max_thrust_utilisation: 0.5,
             max_drive_utilisation: 0.8,
+            current_m_s: [0.0; 3],
         }
     }
 }
@@ -125,6 +133,7 @@ impl HoverConfig {
                 format!("must be at most 1 (a fraction of the {of}), got {}", shown(value)),
             )?;
         }
+        super::check_current("sim.hover.current_m_s", self.current_m_s)?;
         if self.samples < 2 || self.samples > 100_000 {
             return Err(Error::input("sim.hover.samples", "must be between 2 and 100000"));
         }
@@ -238,18 +247,20 @@ fn level_pose(position: Vector3<f64>, yaw: f64) -> Isometry3<f64> {
 }
 
 /// The thrust utilisation of holding the environment's force `f_env` (world) on the tool at
-/// `tool` (world) with the vehicle at `t_world_body`.
+/// `tool` (world) and the water's drag `drag` on the hull (`C`) with the vehicle at
+/// `t_world_body`.
 fn utilisation(
     thrusters: &Thrusters,
     t_world_body: &Isometry3<f64>,
     tool: &Vector3<f64>,
     f_env: &Vector3<f64>,
+    drag: &Force,
 ) -> f64 {
     let f = t_world_body.rotation.inverse() * f_env;
     let p = t_world_body.inverse_transform_point(&(*tool).into()).coords;
     let mut tau = Vector6::zeros();
-    tau.fixed_rows_mut::<3>(0).copy_from(&-f);
-    tau.fixed_rows_mut::<3>(3).copy_from(&-p.cross(&f));
+    tau.fixed_rows_mut::<3>(0).copy_from(&-(f + drag.lin));
+    tau.fixed_rows_mut::<3>(3).copy_from(&-(p.cross(&f) + drag.ang));
     thrusters.utilisation(&tau)
 }
 
@@ -270,19 +281,18 @@ fn drive_load(arm: &Arm, q: &JointVector, base: &BaseMotion, f_env: &Vector3<f64
 }
 
 /// Follows each IK branch of the first target along `targets` (world tool poses, with the
-/// environment's expected force on the tool) for the vehicle at `t_world_body` in gravity `g`;
+/// environment's expected force on the tool) for the vehicle of `system` at `t_world_body`;
 /// the best branch. A branch is given up as soon as it cannot beat `bar` (the best candidate
 /// so far).
 fn follow(
-    arm: &Arm,
+    system: &Multibody,
     thrusters: &Thrusters,
     t_world_body: &Isometry3<f64>,
-    g: f64,
     targets: &[(Isometry3<f64>, Vector3<f64>)],
     cfg: &HoverConfig,
     bar: Option<&Reach>,
 ) -> Result<Option<Reach>> {
-    let n = targets.len();
+    let (arm, n) = (&system.arm, targets.len());
     let t_base_world = (t_world_body * arm.t_body_base()).inverse();
     if targets.is_empty() {
         return Ok(None);
@@ -299,9 +309,14 @@ fn follow(
     if starts.is_empty() {
         return Ok(None);
     }
+    // The hull at rest in the current moves through the water at minus the current.
+    let against = t_world_body.rotation.inverse() * -Vector3::from(cfg.current_m_s);
+    let drag = system
+        .vehicle
+        .drag_on_body(&Motion::new(against, Vector3::zeros()));
     let loads: Vec<f64> = targets
         .iter()
-        .map(|(t, f)| utilisation(thrusters, t_world_body, &t.translation.vector, f))
+        .map(|(t, f)| utilisation(thrusters, t_world_body, &t.translation.vector, f, &drag))
         .collect();
     // The drives' static load where the tool is pressed (free of the surface, the arm at rest
     // weighs on them far below their limits).
@@ -310,7 +325,7 @@ fn follow(
         &t_world_body.rotation,
         &Vector6::zeros(),
         &Vector6::zeros(),
-        g,
+        system.gravity,
         &Vector3::zeros(),
     );
     let f_base: Vec<Vector3<f64>> = targets.iter().map(|(_, f)| t_base_world.rotation * f).collect();
@@ -357,17 +372,16 @@ fn follow(
     Ok(best)
 }
 
-/// The hover point for `trajectory` (world frame) with the controller's `arm` and `thrusters`
-/// in gravity `g` (m/s²).
+/// The hover point for `trajectory` (world frame) with the controller's model of the vehicle
+/// and arm, `system`, and of the `thrusters`.
 ///
 /// # Errors
 /// [`Error::Input`] for a bad configuration or an empty trajectory; [`Error::Failed`] (stage
 /// `hover`) if no candidate reaches the whole trajectory, saying which part is out of reach,
 /// or if the thrusters or the drives cannot hold the contact at any that does.
 pub fn choose(
-    arm: &Arm,
+    system: &Multibody,
     thrusters: &Thrusters,
-    g: f64,
     trajectory: &Trajectory,
     cfg: &HoverConfig,
 ) -> Result<Hover> {
@@ -411,7 +425,7 @@ pub fn choose(
     let mut consider = |pose: Isometry3<f64>, best: &mut Option<(Isometry3<f64>, Reach)>| -> Result<()> {
         evaluated += 1;
         let bar = best.as_ref().map(|(_, r)| r);
-        if let Some(r) = follow(arm, thrusters, &pose, g, &targets, cfg, bar)?
+        if let Some(r) = follow(system, thrusters, &pose, &targets, cfg, bar)?
             && best.as_ref().is_none_or(|(_, b)| r.beats(b, cfg))
         {
             *best = Some((pose, r));
@@ -558,8 +572,8 @@ mod tests {
         }
     }
 
-    #[test]
-    fn finds_a_pose_that_reaches_every_sample() {
+    /// The default system, a 0.3 m stroke from the identity pose and a coarse search.
+    fn coarse_stroke() -> (Multibody, Trajectory, HoverConfig) {
         let mb = Multibody::new(&UvmsModel::default()).unwrap();
         let traj = stroke(&mb, &Isometry3::identity(), 0.3);
         let cfg = HoverConfig {
@@ -567,7 +581,13 @@ mod tests {
             yaw_step_deg: 90.0,
             ..HoverConfig::default()
         };
-        let h = choose(&mb.arm, &thrusters(), 9.81, &traj, &cfg).unwrap();
+        (mb, traj, cfg)
+    }
+
+    #[test]
+    fn finds_a_pose_that_reaches_every_sample() {
+        let (mb, traj, cfg) = coarse_stroke();
+        let h = choose(&mb, &thrusters(), &traj, &cfg).unwrap();
         assert!(h.manipulability > 0.0);
         // Check it independently: every sample has an IK solution from the chosen pose.
         let t_base_world = (h.t_world_body * mb.arm.t_body_base()).inverse();
@@ -605,7 +625,7 @@ mod tests {
             drag_n: 70.0,
             ..HoverConfig::default()
         };
-        let h = choose(&mb.arm, &thrusters(), 9.81, &traj, &cfg).unwrap();
+        let h = choose(&mb, &thrusters(), &traj, &cfg).unwrap();
         let x_body = h.t_world_body.rotation * Vector3::x();
         assert!(x_body.y.abs() > 0.7, "heading {x_body}");
     }
@@ -644,31 +664,66 @@ mod tests {
     /// contact at every candidate are a failed run naming the joint.
     #[test]
     fn the_drives_must_hold_the_contact() {
-        let mb = Multibody::new(&UvmsModel::default()).unwrap();
-        let traj = stroke(&mb, &Isometry3::identity(), 0.3);
-        let cfg = HoverConfig {
-            step_m: 0.15,
-            yaw_step_deg: 90.0,
-            ..HoverConfig::default()
-        };
-        let free = choose(&mb.arm, &thrusters(), 9.81, &traj, &cfg).unwrap();
+        let (mb, traj, cfg) = coarse_stroke();
+        let free = choose(&mb, &thrusters(), &traj, &cfg).unwrap();
         assert!(free.drive_utilisation > 0.0 && free.drive_utilisation <= cfg.max_drive_utilisation);
         let tight = HoverConfig {
             max_drive_utilisation: 0.9 * free.drive_utilisation,
             ..cfg
         };
-        let h = choose(&mb.arm, &thrusters(), 9.81, &traj, &tight).unwrap();
+        let h = choose(&mb, &thrusters(), &traj, &tight).unwrap();
         assert!(h.drive_utilisation < free.drive_utilisation, "{h:?}");
         assert!(h.manipulability <= free.manipulability, "{h:?}");
-        let mut weak = mb.arm.clone();
-        weak.links[1].torque_limit = 1.0;
-        let e = choose(&weak, &thrusters(), 9.81, &traj, &cfg).unwrap_err();
+        let mut weak = mb.clone();
+        weak.arm.links[1].torque_limit = 1.0;
+        let e = choose(&weak, &thrusters(), &traj, &cfg).unwrap_err();
         assert_eq!(e.exit_code(), 1);
         assert!(
             e.to_string().contains("the drives cannot hold the contact")
                 && e.to_string().contains("joint 2 needs"),
             "{e}"
         );
+    }
+
+    /// In a current the station's heading takes the hull's drag where the thrusters hold it
+    /// best: the chosen point's thrust utilisation in the current is at most that of the point
+    /// chosen for still water, in the same current, and a current no thruster can hold is a
+    /// failed run.
+    #[test]
+    fn the_station_is_chosen_for_the_expected_current() {
+        let (mb, traj, cfg) = coarse_stroke();
+        let cfg = HoverConfig {
+            yaw_step_deg: 45.0,
+            ..cfg
+        };
+        let current = [0.3, 0.6, 0.0];
+        let still = choose(&mb, &thrusters(), &traj, &cfg).unwrap();
+        let within = HoverConfig {
+            current_m_s: current,
+            ..cfg
+        };
+        let h = choose(&mb, &thrusters(), &traj, &within).unwrap();
+        // The still-water point in the current, with the same loads as the search.
+        let fixed = |pose: &Isometry3<f64>| HoverConfig {
+            position_m: Some(pose.translation.vector.into()),
+            yaw_deg: pose.rotation.euler_angles().2.to_degrees(),
+            ..within
+        };
+        let still_in_current = choose(&mb, &thrusters(), &traj, &fixed(&still.t_world_body)).unwrap();
+        assert!(
+            h.thrust_utilisation < still_in_current.thrust_utilisation,
+            "{h:?} against {still_in_current:?}"
+        );
+        assert!(
+            h.thrust_utilisation > still.thrust_utilisation,
+            "{h:?} against {still:?}"
+        );
+        let torrent = HoverConfig {
+            current_m_s: [0.0, 9.0, 0.0],
+            ..cfg
+        };
+        let e = choose(&mb, &thrusters(), &traj, &torrent).unwrap_err();
+        assert!(e.to_string().contains("the thrusters cannot hold"), "{e}");
     }
 
     #[test]
@@ -681,7 +736,7 @@ mod tests {
             yaw_step_deg: 90.0,
             ..HoverConfig::default()
         };
-        let e = choose(&mb.arm, &thrusters(), 9.81, &traj, &cfg).unwrap_err();
+        let e = choose(&mb, &thrusters(), &traj, &cfg).unwrap_err();
         assert_eq!(e.exit_code(), 1);
         assert!(e.to_string().contains("out of reach"), "{e}");
     }
