@@ -692,7 +692,21 @@ pub fn simulate(
                 .map_err(|e| diverged(&e, t, &plant.state))?;
             first_acc.get_or_insert(report.sample);
         }
-        check_runaway(&plant.state, &h, t + dt)?;
+        check_runaway(&plant.state, &h, t + dt, || {
+            let station = if cfg.scenario.current_m_s == cfg.hover.current_m_s {
+                String::new()
+            } else {
+                let [a, b, c] = cfg.hover.current_m_s.map(|v| shown_to(v, 2));
+                let [x, y, z] = cfg.scenario.current_m_s.map(|v| shown_to(v, 2));
+                format!(
+                    "; the station was chosen for a current of [{a}, {b}, {c}] m/s, the scenario's is [{x}, {y}, {z}] m/s ([sim.hover] current_m_s)"
+                )
+            };
+            format!(
+                "; the thrusters saturated in {:.1} % of the periods{station}",
+                100.0 * saturated as f64 / (k + 1) as f64
+            )
+        })?;
         if let Some(acc) = &first_acc {
             truth_prev = truth_of(&state, acc, g);
         }
@@ -891,8 +905,9 @@ fn diverged(e: &Error, t: f64, s: &State) -> Error {
     )
 }
 
-/// A runaway (the state finite but far outside anything a hovering vehicle does) ends the run.
-fn check_runaway(s: &State, hover: &Isometry3<f64>, t: f64) -> Result<()> {
+/// A runaway (the state finite but far outside anything a hovering vehicle does) ends the run;
+/// `context` adds what the run saw to the message.
+fn check_runaway(s: &State, hover: &Isometry3<f64>, t: f64, context: impl Fn() -> String) -> Result<()> {
     let r = (s.t_world_body.translation.vector - hover.translation.vector).norm();
     let v = s.nu.fixed_rows::<3>(0).norm();
     let w = s.nu.fixed_rows::<3>(3).norm();
@@ -901,8 +916,9 @@ fn check_runaway(s: &State, hover: &Isometry3<f64>, t: f64) -> Result<()> {
         return Err(Error::failed(
             "sim",
             format!(
-                "the simulation ran away at t = {t:.3} s (‖r‖ = {r:.3} m, ‖v‖ = {v:.2} m/s, ‖ω‖ = {w:.2} rad/s, max |q̇| = {qd:.2} rad/s): {}",
-                describe(s)
+                "the simulation ran away at t = {t:.3} s (‖r‖ = {r:.3} m, ‖v‖ = {v:.2} m/s, ‖ω‖ = {w:.2} rad/s, max |q̇| = {qd:.2} rad/s): {}{}",
+                describe(s),
+                context()
             ),
         ));
     }
@@ -913,13 +929,13 @@ fn check_runaway(s: &State, hover: &Isometry3<f64>, t: f64) -> Result<()> {
 mod tests {
     use super::*;
 
-    /// A run that leaves any hovering vehicle's range ends as a failed run naming the time and
-    /// what ran away; at its station at rest it goes on.
+    /// A run that leaves any hovering vehicle's range ends as a failed run naming the time,
+    /// what ran away and what the run saw; at its station at rest it goes on.
     #[test]
     fn a_runaway_is_a_failed_run() {
         let hover = Isometry3::translation(1.0, 2.0, 3.0);
         let rest = State::at_rest(hover, JointVector::zeros());
-        assert!(check_runaway(&rest, &hover, 1.0).is_ok());
+        assert!(check_runaway(&rest, &hover, 1.0, String::new).is_ok());
         let mut far = rest;
         far.t_world_body = Isometry3::translation(1.0, 2.0, 5.5);
         let mut fast = rest;
@@ -927,9 +943,13 @@ mod tests {
         let mut spinning = rest;
         spinning.qd[2] = 25.0;
         for s in [far, fast, spinning] {
-            let err = check_runaway(&s, &hover, 12.5).unwrap_err();
+            let err = check_runaway(&s, &hover, 12.5, || "; what the run saw".into()).unwrap_err();
             assert!(matches!(err, Error::Failed { .. }), "{err}");
-            assert!(err.to_string().contains("ran away at t = 12.500 s"), "{err}");
+            let err = err.to_string();
+            assert!(
+                err.contains("ran away at t = 12.500 s") && err.ends_with("; what the run saw"),
+                "{err}"
+            );
         }
     }
 
