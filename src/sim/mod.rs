@@ -358,7 +358,7 @@ pub struct SimSummary {
     /// Worst-case manipulability `|det J|` along the trajectory at the hover point.
     pub hover_manipulability: f64,
     /// The largest fraction of a thruster's thrust that holding the planned contact takes
-    /// there (static, `sim.hover.drag_n` included).
+    /// there (static, with `sim.hover.drag_n` and the hull's drag in `sim.hover.current_m_s`).
     pub hover_thrust_utilisation: f64,
     /// The largest fraction of a drive's torque limit that holding the planned contact takes
     /// there (static, the arm's weight in water included).
