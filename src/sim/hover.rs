@@ -31,7 +31,8 @@
 //! around it refines the choice. No candidate reaching the whole trajectory is an error that
 //! says how far the best got, and so is a winner whose thrusters or drives would need more than
 //! they have (the least loaded when none is within the limits: no candidate can hold the
-//! contact).
+//! contact), or whose branch, followed through every sample of the trajectory, fails one
+//! between those checked.
 
 use crate::arm::{Arm, BaseMotion, JointVector};
 use crate::config::{non_negative, positive, require, shown, shown_to};
@@ -295,6 +296,66 @@ fn drive_load(arm: &Arm, q: &JointVector, base: &BaseMotion, f_env: &Vector3<f64
         )
 }
 
+/// Whether the wrist at `q` keeps `min_wrist_angle_rad` from its singularity on the side
+/// `side` (the sign of `q₅` it started with).
+fn wrist_clear(q: &JointVector, side: f64, cfg: &HoverConfig) -> bool {
+    q[4].abs() >= cfg.min_wrist_angle_rad && q[4] * side > 0.0
+}
+
+/// Follows the chosen station's branch from `q_start` through every sample of `trajectory`
+/// (the search checked about `cfg.samples` of them): each reached, no joint jumping by more
+/// than `max_joint_step_rad` from the last, the wrist clear of its singularity.
+///
+/// # Errors
+/// [`Error::Failed`] (stage `hover`) naming the first sample that is not.
+fn follow_every_sample(
+    arm: &Arm,
+    t_world_body: &Isometry3<f64>,
+    q_start: &JointVector,
+    trajectory: &Trajectory,
+    cfg: &HoverConfig,
+) -> Result<()> {
+    let t_base_world = (t_world_body * arm.t_body_base()).inverse();
+    let side = q_start[4].signum();
+    let mut q = *q_start;
+    for s in &trajectory.samples {
+        let target =
+            t_base_world * Isometry3::from_parts(Translation3::from(s.position.coords), s.orientation);
+        let next = arm.ik_nearest(&target, &q)?;
+        let why = match next {
+            None => "is out of the arm's reach".to_string(),
+            Some(n) if (n - q).amax() > cfg.max_joint_step_rad => format!(
+                "needs a joint to turn by {} rad from the sample before (sim.hover.max_joint_step_rad {})",
+                shown_to((n - q).amax(), 2),
+                shown(cfg.max_joint_step_rad)
+            ),
+            Some(n) if !wrist_clear(&n, side, cfg) => format!(
+                "brings the wrist within {} rad of its singularity (sim.hover.min_wrist_angle_rad {})",
+                shown_to(n[4].abs(), 3),
+                shown(cfg.min_wrist_angle_rad)
+            ),
+            Some(n) => {
+                q = n;
+                continue;
+            }
+        };
+        let p = s.position;
+        return Err(Error::failed(
+            "hover",
+            format!(
+                "the best station reaches the samples the search checks (about sim.hover.samples = {}), but the point at t = {:.2} s between them ({} phase, at [{}, {}, {}] m) {why}: check more samples",
+                cfg.samples,
+                s.t,
+                s.phase.as_str(),
+                shown_to(p.x, 3),
+                shown_to(p.y, 3),
+                shown_to(p.z, 3)
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Follows each IK branch of the first target along `targets` (world tool poses, with the
 /// environment's expected force on the tool) for the vehicle of `system` at `t_world_body`;
 /// the best branch. A branch is given up as soon as it cannot beat `bar` (the best candidate
@@ -351,8 +412,7 @@ fn follow(
             drive_load(arm, q, &base, &f_base[i])
         }
     };
-    // The wrist clear of its singularity, on the side it started.
-    let clear = |q: &JointVector, side: f64| q[4].abs() >= cfg.min_wrist_angle_rad && q[4] * side > 0.0;
+    let clear = |q: &JointVector, side: f64| wrist_clear(q, side, cfg);
     let mut best: Option<Reach> = None;
     for q0 in starts.as_slice() {
         let mut q = *q0;
@@ -530,13 +590,16 @@ pub fn choose(
                 ),
             ))
         }
-        Some((pose, r)) if r.reached == targets.len() => Ok(Hover {
-            t_world_body: pose,
-            q_start: r.q_start,
-            manipulability: r.manipulability,
-            thrust_utilisation: r.thrust,
-            drive_utilisation: r.drive.0,
-        }),
+        Some((pose, r)) if r.reached == targets.len() => {
+            follow_every_sample(&system.arm, &pose, &r.q_start, trajectory, cfg)?;
+            Ok(Hover {
+                t_world_body: pose,
+                q_start: r.q_start,
+                manipulability: r.manipulability,
+                thrust_utilisation: r.thrust,
+                drive_utilisation: r.drive.0,
+            })
+        }
         best => {
             let reached = best.map_or(0, |(_, r)| r.reached);
             let fail = &trajectory.samples[idx[reached.min(idx.len() - 1)]];
@@ -773,6 +836,49 @@ mod tests {
         assert!(
             lo * hi > 0.0 && lo.abs().min(hi.abs()) >= margin,
             "q5 in [{lo}, {hi}], margin {margin}"
+        );
+    }
+
+    /// A tool held at one point but for a 5 m excursion over samples 47–49 of 101, between
+    /// those the search checks (`samples = 4`: every 26th): every station reaches the checked
+    /// ones, and following the chosen one through every sample finds the excursion out of
+    /// reach, a failed run naming it.
+    #[test]
+    fn the_chosen_station_is_followed_through_every_sample() {
+        let mb = Multibody::new(&UvmsModel::default()).unwrap();
+        let at = stroke(&mb, &Isometry3::identity(), 0.0).samples[0];
+        let samples = (0..=100)
+            .map(|i| {
+                let out = match i {
+                    48 => 5.0,
+                    47 | 49 => 2.5,
+                    _ => 0.0,
+                };
+                Sample {
+                    t: i as f64,
+                    position: at.position + Vector3::new(0.0, out, 0.0),
+                    ..at
+                }
+            })
+            .collect();
+        let traj = Trajectory {
+            samples,
+            notes: vec![],
+        };
+        let cfg = HoverConfig {
+            step_m: 0.3,
+            yaw_step_deg: 90.0,
+            samples: 4,
+            ..HoverConfig::default()
+        };
+        let e = choose(&mb, &thrusters(), &traj, &cfg).unwrap_err();
+        assert_eq!(e.exit_code(), 1);
+        let e = e.to_string();
+        assert!(
+            e.contains("about sim.hover.samples = 4")
+                && e.contains("t = 47.00 s")
+                && e.contains("is out of the arm's reach"),
+            "{e}"
         );
     }
 
