@@ -329,6 +329,7 @@ fn follow_every_sample(
                 shown_to((n - q).amax(), 2),
                 shown(cfg.max_joint_step_rad)
             ),
+            Some(n) if n[4] * side <= 0.0 => "takes the wrist through its singularity".to_string(),
             Some(n) if !wrist_clear(&n, side, cfg) => format!(
                 "brings the wrist within {} rad of its singularity (sim.hover.min_wrist_angle_rad {})",
                 shown_to(n[4].abs(), 3),
