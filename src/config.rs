@@ -28,20 +28,14 @@ pub fn from_toml_str<T: DeserializeOwned + Serialize>(text: &str, origin: &str) 
     // serde's own messages ("invalid length 2, expected an array of length 3", "expected
     // usize") do not say which.
     let value: T = serde_path_to_error::deserialize(document).map_err(|e| {
-        // Elements counted from 1, as a reader counts `[[arm.links]]` tables.
         let mut key = String::new();
         for segment in e.path().iter() {
-            match segment {
-                serde_path_to_error::Segment::Seq { index } => key += &format!("[{}]", index + 1),
+            key = match segment {
+                serde_path_to_error::Segment::Seq { index } => element(&key, *index),
                 serde_path_to_error::Segment::Map { key: k }
-                | serde_path_to_error::Segment::Enum { variant: k } => {
-                    if !key.is_empty() {
-                        key.push('.');
-                    }
-                    key += k;
-                }
-                serde_path_to_error::Segment::Unknown => key += ".?",
-            }
+                | serde_path_to_error::Segment::Enum { variant: k } => subkey(&key, k),
+                serde_path_to_error::Segment::Unknown => key + ".?",
+            };
         }
         let inner = e.into_inner();
         let message = if key.is_empty() || inner.message().contains(&format!("`{key}`")) {
@@ -120,17 +114,27 @@ fn line_of_key(text: &str, key: &str) -> Option<usize> {
     first_of_name
 }
 
+/// The key `name` under `parent` (`parent.name`; `name` at the top level).
+fn subkey(parent: &str, name: &str) -> String {
+    if parent.is_empty() {
+        name.to_string()
+    } else {
+        format!("{parent}.{name}")
+    }
+}
+
+/// The element `index` (from 0) of the array `parent`, as messages name it: counted from 1, as
+/// a reader counts `[[arm.links]]` tables.
+fn element(parent: &str, index: usize) -> String {
+    format!("{parent}[{}]", index + 1)
+}
+
 /// The first array of `given` whose kept value (the same key in `kept`) is shorter: its key,
 /// and the lengths given and kept.
 fn array_kept_short(given: &toml::Table, kept: &toml::Table, prefix: &str) -> Option<(String, usize, usize)> {
-    given.iter().find_map(|(k, g)| {
-        let key = if prefix.is_empty() {
-            k.clone()
-        } else {
-            format!("{prefix}.{k}")
-        };
-        value_kept_short(g, kept.get(k)?, key)
-    })
+    given
+        .iter()
+        .find_map(|(k, g)| value_kept_short(g, kept.get(k)?, subkey(prefix, k)))
 }
 
 fn value_kept_short(given: &toml::Value, kept: &toml::Value, key: String) -> Option<(String, usize, usize)> {
@@ -141,7 +145,7 @@ fn value_kept_short(given: &toml::Value, kept: &toml::Value, key: String) -> Opt
             .iter()
             .zip(k)
             .enumerate()
-            .find_map(|(i, (g, k))| value_kept_short(g, k, format!("{key}[{}]", i + 1))),
+            .find_map(|(i, (g, k))| value_kept_short(g, k, element(&key, i))),
         _ => None,
     }
 }
@@ -203,6 +207,12 @@ pub fn shown_to(v: f64, decimals: usize) -> String {
     }
 }
 
+/// A vector `[x, y, z]` for a message, each as [`shown_to`].
+pub fn shown_xyz(v: &[f64; 3], decimals: usize) -> String {
+    let [x, y, z] = v.map(|c| shown_to(c, decimals));
+    format!("[{x}, {y}, {z}]")
+}
+
 /// The largest magnitude of a real value in a configuration or model: past any scene, vehicle,
 /// sensor, gain or material in SI units (a thousand kilometres, a million tonnes), short of the
 /// magnitudes whose products lose all precision or overflow. A value beyond it could only make a
@@ -217,20 +227,10 @@ pub const MAX_VALUE: f64 = 1e9;
 /// [`Error::Input`] naming the key.
 pub fn within_range<T: Serialize>(value: &T, prefix: &str) -> Result<()> {
     fn walk(v: &toml::Value, key: &str) -> Option<(String, f64)> {
-        let sub = |k: &str| {
-            if key.is_empty() {
-                k.to_string()
-            } else {
-                format!("{key}.{k}")
-            }
-        };
         match v {
             toml::Value::Float(x) if x.abs() > MAX_VALUE => Some((key.to_string(), *x)),
-            toml::Value::Table(t) => t.iter().find_map(|(k, v)| walk(v, &sub(k))),
-            toml::Value::Array(a) => a
-                .iter()
-                .enumerate()
-                .find_map(|(i, v)| walk(v, &format!("{key}[{}]", i + 1))),
+            toml::Value::Table(t) => t.iter().find_map(|(k, v)| walk(v, &subkey(key, k))),
+            toml::Value::Array(a) => a.iter().enumerate().find_map(|(i, v)| walk(v, &element(key, i))),
             _ => None,
         }
     }

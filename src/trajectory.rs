@@ -34,7 +34,7 @@
 
 use crate::error::{Error, Result};
 use crate::frames::{Pose, pose_from_rows, pose_to_rows};
-use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use std::io::Write;
 use std::path::Path;
 
@@ -92,6 +92,11 @@ pub struct Sample {
 }
 
 impl Sample {
+    /// The tool's pose in `W`: its frame `G` at the tip.
+    pub fn pose(&self) -> Isometry3<f64> {
+        Isometry3::from_parts(Translation3::from(self.position.coords), self.orientation)
+    }
+
     /// The tool axes `x_G`, `y_G`, `z_G` in `W`.
     pub fn axes(&self) -> [Vector3<f64>; 3] {
         let r = self.orientation.to_rotation_matrix();

@@ -50,6 +50,11 @@ fn run_pipeline(pipeline: &Path, out: &Path) -> Value {
     summary
 }
 
+/// The `summary.json` a run wrote into `out`.
+fn summary_in(out: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+}
+
 /// The bottle-cleaning pipeline with extra TOML appended (paths made absolute).
 fn variant(dir: &Path, extra: &str) -> PathBuf {
     let text = std::fs::read_to_string(repo("pipelines/bottle_cleaning.toml")).unwrap();
@@ -113,7 +118,7 @@ fn bottle_cleaning_end_to_end() {
         assert!(out.join(f).is_file(), "{f} missing");
     }
     // The summary nests each stage's; the file holds the same object.
-    let on_disk: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let on_disk = summary_in(out);
     assert_eq!(on_disk["sim"]["force_setpoint_n"], s["sim"]["force_setpoint_n"]);
     assert!(s["check"]["add_s_m"].as_f64().unwrap() < 0.002, "{}", s["check"]);
     assert_eq!(s["plan"]["pattern"], "ring");
@@ -623,8 +628,7 @@ fn a_contact_operation_that_never_touches_is_a_failed_run() {
     for product in ["timeseries.csv", "summary.json", "config.toml", "force.svg"] {
         assert!(missed.join(product).is_file(), "{product} missing");
     }
-    let summary: Value =
-        serde_json::from_str(&std::fs::read_to_string(missed.join("summary.json")).unwrap()).unwrap();
+    let summary = summary_in(&missed);
     assert!(
         summary["failure"]
             .as_str()
@@ -658,8 +662,7 @@ fn a_contact_operation_that_never_touches_is_a_failed_run() {
     let skimmed = dir.path().join("skimmed");
     let o = sim(&repo("data/scans/bottle/scene_mesh.ply"), &skimmed);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let summary: Value =
-        serde_json::from_str(&std::fs::read_to_string(skimmed.join("summary.json")).unwrap()).unwrap();
+    let summary = summary_in(&skimmed);
     assert!(
         summary["first_contact_s"].is_null() && summary.get("failure").is_none(),
         "{summary}"

@@ -11,7 +11,7 @@ use super::{Ctx, Report};
 use crate::arm::Arm;
 use crate::config::relative_to;
 use crate::error::{Error, Result};
-use crate::frames::ScanFrames;
+use crate::frames::{ScanFrames, pose_error};
 use crate::io::ply::read_mesh;
 use crate::mesh::TriangleMesh;
 use crate::model::UvmsModel;
@@ -308,18 +308,15 @@ fn check_frames(trajectory: &Trajectory, file: &Path, cfg: &SimCommandConfig) ->
     let Some(planned) = trajectory.planned_t_world_scan(&origin)? else {
         return Ok(());
     };
-    let used = cfg.frames.t_world_scan();
-    let moved = (planned.translation.vector - used.translation.vector).norm();
-    let turned = planned.rotation.angle_to(&used.rotation);
-    if moved <= 1e-6 && turned <= 1e-6 {
+    let (turned_deg, moved) = pose_error(&planned, &cfg.frames.t_world_scan());
+    if moved <= 1e-6 && turned_deg <= 1e-6f64.to_degrees() {
         return Ok(());
     }
     Err(Error::input(
         origin,
         format!(
             "was planned with the scan frame {:.3} m and {:.2}° from where the configuration's [frames] put it (camera_in_vehicle, vehicle_in_world): the surface, in the scan frame (sim.surface_frame), would not be where the trajectory runs; give [frames] the frames of the plan",
-            moved,
-            turned.to_degrees()
+            moved, turned_deg
         ),
     ))
 }

@@ -35,7 +35,7 @@
 //! between those checked.
 
 use crate::arm::{Arm, BaseMotion, JointVector};
-use crate::config::{non_negative, positive, require, shown, shown_to};
+use crate::config::{non_negative, positive, require, shown, shown_to, shown_xyz};
 use crate::error::{Error, Result};
 use crate::multibody::Multibody;
 use crate::spatial_algebra::{Force, Motion};
@@ -290,10 +290,13 @@ fn drive_load(arm: &Arm, q: &JointVector, base: &BaseMotion, f_env: &Vector3<f64
         .tau;
     (0..tau.len())
         .map(|i| (tau[i].abs() / arm.links[i].torque_limit, i, tau[i]))
-        .fold(
-            (0.0, 0, 0.0),
-            |a, b| if b.0 > a.0 || b.0.is_nan() { b } else { a },
-        )
+        .fold((0.0, 0, 0.0), more_loaded)
+}
+
+/// The more loaded of two drive loads `(utilisation, joint, torque)`, a NaN utilisation
+/// counting as the most.
+fn more_loaded(a: (f64, usize, f64), b: (f64, usize, f64)) -> (f64, usize, f64) {
+    if b.0 > a.0 || b.0.is_nan() { b } else { a }
 }
 
 /// Whether the wrist at `q` keeps `min_wrist_angle_rad` from its singularity on the side
@@ -319,9 +322,7 @@ fn follow_every_sample(
     let side = q_start[4].signum();
     let mut q = *q_start;
     for s in &trajectory.samples {
-        let target =
-            t_base_world * Isometry3::from_parts(Translation3::from(s.position.coords), s.orientation);
-        let next = arm.ik_nearest(&target, &q)?;
+        let next = arm.ik_nearest(&(t_base_world * s.pose()), &q)?;
         let why = match next {
             None => "is out of the arm's reach".to_string(),
             Some(n) if (n - q).amax() > cfg.max_joint_step_rad => format!(
@@ -340,17 +341,14 @@ fn follow_every_sample(
                 continue;
             }
         };
-        let p = s.position;
         return Err(Error::failed(
             "hover",
             format!(
-                "the best station reaches the samples the search checks (about sim.hover.samples = {}), but the point at t = {:.2} s between them ({} phase, at [{}, {}, {}] m) {why}: check more samples",
+                "the best station reaches the samples the search checks (about sim.hover.samples = {}), but the point at t = {:.2} s between them ({} phase, at {} m) {why}: check more samples",
                 cfg.samples,
                 s.t,
                 s.phase.as_str(),
-                shown_to(p.x, 3),
-                shown_to(p.y, 3),
-                shown_to(p.z, 3)
+                shown_xyz(&s.position.coords.into(), 3)
             ),
         ));
     }
@@ -413,14 +411,13 @@ fn follow(
             drive_load(arm, q, &base, &f_base[i])
         }
     };
-    let clear = |q: &JointVector, side: f64| wrist_clear(q, side, cfg);
     let mut best: Option<Reach> = None;
     for q0 in starts.as_slice() {
         let mut q = *q0;
         let side = q0[4].signum();
         let mut r = Reach {
             q_start: *q0,
-            reached: usize::from(clear(q0, side)),
+            reached: usize::from(wrist_clear(q0, side, cfg)),
             manipulability: arm.manipulability_at(&in_base[0], &q)?,
             thrust: loads[0],
             drive: drive_at(0, &q),
@@ -432,16 +429,13 @@ fn follow(
             let Some(next) = arm.ik_nearest(&in_base[i], &q)? else {
                 break;
             };
-            if (next - q).amax() > cfg.max_joint_step_rad || !clear(&next, side) {
+            if (next - q).amax() > cfg.max_joint_step_rad || !wrist_clear(&next, side, cfg) {
                 break;
             }
             q = next;
             r.manipulability = r.manipulability.min(arm.manipulability_at(&in_base[i], &q)?);
             r.thrust = r.thrust.max(loads[i]);
-            let drive = drive_at(i, &q);
-            if drive.0 > r.drive.0 || drive.0.is_nan() {
-                r.drive = drive;
-            }
+            r.drive = more_loaded(r.drive, drive_at(i, &q));
             r.reached += 1;
         }
         if best.as_ref().is_none_or(|b| r.beats(b, cfg)) {
@@ -478,14 +472,13 @@ pub fn choose(
         .iter()
         .map(|&i| {
             let s = &trajectory.samples[i];
-            let pose = Isometry3::from_parts(Translation3::from(s.position.coords), s.orientation);
             // The surface pushes back along −k and resists the motion along x_G.
             let f_env = if matches!(s.phase, Phase::Dwell | Phase::Contact) {
                 -s.k * s.force - s.orientation * Vector3::x() * cfg.drag_n
             } else {
                 Vector3::zeros()
             };
-            (pose, f_env)
+            (s.pose(), f_env)
         })
         .collect();
     let centroid = targets
@@ -604,18 +597,15 @@ pub fn choose(
         best => {
             let reached = best.map_or(0, |(_, r)| r.reached);
             let fail = &trajectory.samples[idx[reached.min(idx.len() - 1)]];
-            let p = fail.position;
             Err(Error::failed(
                 "hover",
                 format!(
-                    "no hover point reaches the whole trajectory within the joint limits and with the wrist at least {} rad from its singularity (sim.hover.min_wrist_angle_rad): the best of {evaluated} candidates follows it to t = {:.2} s and the point at t = {:.2} s ({} phase, at [{}, {}, {}] m) is out of reach",
+                    "no hover point reaches the whole trajectory within the joint limits and with the wrist at least {} rad from its singularity (sim.hover.min_wrist_angle_rad): the best of {evaluated} candidates follows it to t = {:.2} s and the point at t = {:.2} s ({} phase, at {} m) is out of reach",
                     shown(cfg.min_wrist_angle_rad),
                     trajectory.samples[idx[reached.saturating_sub(1)]].t,
                     fail.t,
                     fail.phase.as_str(),
-                    shown_to(p.x, 3),
-                    shown_to(p.y, 3),
-                    shown_to(p.z, 3)
+                    shown_xyz(&fail.position.coords.into(), 3)
                 ),
             ))
         }
@@ -676,10 +666,9 @@ mod tests {
         let t_base_world = (h.t_world_body * mb.arm.t_body_base()).inverse();
         let mut q = h.q_start;
         for s in &traj.samples {
-            let target = Isometry3::from_parts(Translation3::from(s.position.coords), s.orientation);
             q = *mb
                 .arm
-                .ik(&(t_base_world * target), &q)
+                .ik(&(t_base_world * s.pose()), &q)
                 .unwrap()
                 .nearest()
                 .unwrap();
@@ -820,8 +809,11 @@ mod tests {
             let mut q = h.q_start;
             let mut range = (f64::INFINITY, f64::NEG_INFINITY);
             for s in &traj.samples {
-                let target = Isometry3::from_parts(Translation3::from(s.position.coords), s.orientation);
-                q = mb.arm.ik_nearest(&(t_base_world * target), &q).unwrap().unwrap();
+                q = mb
+                    .arm
+                    .ik_nearest(&(t_base_world * s.pose()), &q)
+                    .unwrap()
+                    .unwrap();
                 range = (range.0.min(q[4]), range.1.max(q[4]));
             }
             range

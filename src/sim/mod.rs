@@ -36,7 +36,7 @@ pub mod vehicle_control;
 
 use crate::arm::JointVector;
 use crate::arm::dynamics::BaseMotion;
-use crate::config::{non_negative, positive, require, shown, shown_to};
+use crate::config::{non_negative, positive, require, shown, shown_xyz};
 use crate::error::{Error, Result};
 use crate::integrate::Integrator;
 use crate::mesh::TriangleMesh;
@@ -487,10 +487,8 @@ pub fn simulate(
         return Err(Error::failed(
             "sim",
             format!(
-                "the station held before the run has no equilibrium in the current: the controllers' estimate of it, [{}, {}, {}] m/s, still moved by {moved:.1e} m/s after {HOLD_ITERATIONS} iterations (the arm's drag outweighs the vehicle's; [sim.vehicle] current_filter_s = 0 assumes still water)",
-                shown_to(current.x, 3),
-                shown_to(current.y, 3),
-                shown_to(current.z, 3)
+                "the station held before the run has no equilibrium in the current: the controllers' estimate of it, {} m/s, still moved by {moved:.1e} m/s after {HOLD_ITERATIONS} iterations (the arm's drag outweighs the vehicle's; [sim.vehicle] current_filter_s = 0 assumes still water)",
+                shown_xyz(&current.into(), 3)
             ),
         ));
     }
@@ -696,10 +694,10 @@ pub fn simulate(
             let station = if cfg.scenario.current_m_s == cfg.hover.current_m_s {
                 String::new()
             } else {
-                let [a, b, c] = cfg.hover.current_m_s.map(|v| shown_to(v, 2));
-                let [x, y, z] = cfg.scenario.current_m_s.map(|v| shown_to(v, 2));
                 format!(
-                    "; the station was chosen for a current of [{a}, {b}, {c}] m/s, the scenario's is [{x}, {y}, {z}] m/s ([sim.hover] current_m_s)"
+                    "; the station was chosen for a current of {} m/s, the scenario's is {} m/s ([sim.hover] current_m_s)",
+                    shown_xyz(&cfg.hover.current_m_s, 2),
+                    shown_xyz(&cfg.scenario.current_m_s, 2)
                 )
             };
             format!(
