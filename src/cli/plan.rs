@@ -232,6 +232,12 @@ pub struct PlanStage {
     pub text: String,
     /// The trajectory (world frame).
     pub trajectory: crate::trajectory::Trajectory,
+    /// The surface the trajectory was planned on as triangulated from the scan (scan frame): the
+    /// object's, or the seabed's for the line pattern; `None` for a line on a seabed the
+    /// segmentation found no plane of.
+    pub scanned: Option<TriangleMesh>,
+    /// The reference model aligned to the scan (scan frame); `None` without a reference.
+    pub reference: Option<TriangleMesh>,
 }
 
 /// Segment + check + plan: writes what `uvms check` writes, `trajectory.csv` and
@@ -264,7 +270,7 @@ pub fn plan_stage(args: &PlanInputs, cfg: &PlanCommandConfig, out: &OutDir) -> R
     let camera = pc.view.camera();
     let mut summary = json!({});
     let mut text = String::new();
-    let (report, trajectory) = match &args.reference {
+    let (report, trajectory, scanned, reference_surface) = match &args.reference {
         Some(reference) => {
             let model = load_reference(reference, pc)?;
             let opts = CheckOptions {
@@ -304,7 +310,8 @@ pub fn plan_stage(args: &PlanInputs, cfg: &PlanCommandConfig, out: &OutDir) -> R
             };
             let p = plan(&input, &cfg.plan)?;
             text += &write_check_products(out, &result, reference)?;
-            (p.report, p.trajectory)
+            let scanned = if line { seabed } else { Some(result.scan_surface) };
+            (p.report, p.trajectory, scanned, Some(result.reference_surface))
         }
         None => {
             // Soil sampling on a sediment patch: the seabed is all there is.
@@ -320,7 +327,7 @@ pub fn plan_stage(args: &PlanInputs, cfg: &PlanCommandConfig, out: &OutDir) -> R
                 seabed_surface: Some(&seabed),
             };
             let p = plan(&input, &cfg.plan)?;
-            (p.report, p.trajectory)
+            (p.report, p.trajectory, Some(seabed), None)
         }
     };
     let mut trajectory = trajectory;
@@ -338,5 +345,7 @@ pub fn plan_stage(args: &PlanInputs, cfg: &PlanCommandConfig, out: &OutDir) -> R
         plan: plan_summary,
         text,
         trajectory,
+        scanned,
+        reference: reference_surface,
     })
 }

@@ -4,7 +4,8 @@
 //! model, optionally the ground truth, the `up` prior and the initial guess), `[perception]`
 //! (as `uvms check`), `[plan]` (as `uvms plan`; its `[plan.frames]` also place the scan's
 //! surface in the world for the simulation) and `[sim]` (as `uvms sim`, with the true surface
-//! the tool touches). Paths are relative to the pipeline file. Stages: segment → check → plan
+//! the tool touches: a mesh file, or the run's own scanned or aligned reference surface,
+//! `sim.surface_from`). Paths are relative to the pipeline file. Stages: segment → check → plan
 //! (one stage, as `uvms plan`) → hover point → simulation. Writes what `uvms plan` and
 //! `uvms sim` write into one folder (default `out/NAME` for `pipelines/NAME.toml`); the summary
 //! nests each stage's summary under its name (`check`, `plan`, `sim`) with the stage timings.
@@ -15,15 +16,20 @@ use super::sim::{load_sim_inputs, resolve_paths, sim_stage, surface_file};
 use super::{Ctx, Report};
 use crate::config::relative_to;
 use crate::error::{Error, Result};
+use crate::io::ply::write_mesh;
 use crate::output::OutDir;
 use crate::perception::PerceptionConfig;
 use crate::plan::PlanConfig;
-use crate::sim::SimConfig;
+use crate::sim::{SimConfig, SurfaceFrame, SurfaceSource};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// The surface the simulation's tool touched (scan frame), written with `sim.surface_from`
+/// `"scan"` or `"reference"`.
+pub const CONTACT_SURFACE: &str = "contact_surface.ply";
 
 /// Arguments of `uvms run`.
 #[derive(Debug, clap::Args)]
@@ -83,7 +89,18 @@ impl Pipeline {
             .map_err(|e| e.in_table(&origin, "perception."))?;
         p.plan.validate().map_err(|e| e.in_table(&origin, "plan."))?;
         p.sim.validate().map_err(|e| e.in_table(&origin, "sim."))?;
-        surface_file(&p.sim).map_err(|e| e.in_table(&origin, "sim."))?;
+        match p.sim.surface_from {
+            SurfaceSource::File => {
+                surface_file(&p.sim).map_err(|e| e.in_table(&origin, "sim."))?;
+            }
+            SurfaceSource::Reference if p.input.reference.is_none() => {
+                return Err(Error::input(
+                    format!("{origin}: sim.surface_from"),
+                    "\"reference\" takes the aligned reference model: input.reference is not given",
+                ));
+            }
+            _ => {}
+        }
         Ok(p)
     }
 }
@@ -114,6 +131,7 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     let sim_inputs = load_sim_inputs(&p.sim, &p.plan.frames)?;
     let mut products = super::plan::products();
     products.extend(super::sim::PRODUCTS);
+    products.push(CONTACT_SURFACE);
     let out = OutDir::create(&out_dir, &inputs, &products)?;
     let stages = ctx.progress(2, "pipeline");
     let mut text = format!("pipeline     {}\n", args.pipeline.display());
@@ -127,6 +145,29 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     stages.inc(1);
     text += &planned.text;
     let sim_started = Instant::now();
+    let sim_inputs = match p.sim.surface_from {
+        SurfaceSource::File => sim_inputs,
+        from => {
+            let (mesh, name) = match from {
+                SurfaceSource::Reference => (planned.reference, "aligned reference"),
+                _ => (planned.scanned, "scanned surface"),
+            };
+            let mesh = mesh.ok_or_else(|| {
+                Error::failed(
+                    "sim",
+                    "sim.surface_from = \"scan\": the segmentation found no seabed plane to take the line's surface from",
+                )
+            })?;
+            // What the tool touches, for `uvms sim --surface` and a viewer.
+            out.write_with(CONTACT_SURFACE, |w| write_mesh(w, &mesh))?;
+            let _ = writeln!(
+                text,
+                "wrote        {CONTACT_SURFACE} (the {name}, the surface the tool touches)"
+            );
+            let origin = format!("the run's {name}");
+            sim_inputs.with_surface(mesh, SurfaceFrame::Scan, &origin, "sim.surface_from")?
+        }
+    };
     let stage = sim_stage(&planned.trajectory, &sim_inputs, &p.sim, &out, ctx)?;
     let sim_s = sim_started.elapsed().as_secs_f64();
     stages.finish_and_clear();

@@ -11,14 +11,14 @@ use super::{Ctx, Report};
 use crate::arm::Arm;
 use crate::config::relative_to;
 use crate::error::{Error, Result};
-use crate::frames::{ScanFrames, pose_error};
+use crate::frames::{Pose, ScanFrames, pose_error};
 use crate::io::ply::read_mesh;
 use crate::mesh::TriangleMesh;
 use crate::model::UvmsModel;
 use crate::output::OutDir;
 use crate::plot::{to_png, to_svg};
 use crate::sim::record::{figures, write_csv};
-use crate::sim::{SimConfig, SimSummary, SurfaceFrame, check_plant_model, simulate};
+use crate::sim::{SimConfig, SimSummary, SurfaceFrame, SurfaceSource, check_plant_model, simulate};
 use crate::trajectory::{Phase, Trajectory};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write;
@@ -141,8 +141,10 @@ pub const PRODUCTS: [&str; 9] = [
 /// plant's model.
 #[derive(Debug, Clone)]
 pub struct SimInputs {
-    mesh: TriangleMesh,
+    /// `None` until [`SimInputs::with_surface`] gives the run's own (`sim.surface_from`).
+    mesh: Option<TriangleMesh>,
     model: UvmsModel,
+    t_world_scan: Pose,
 }
 
 /// The true surface's file, `sim.surface`.
@@ -153,38 +155,64 @@ pub fn surface_file(cfg: &SimConfig) -> Result<&Path> {
     cfg.surface.as_deref().ok_or_else(|| {
         Error::input(
             "sim.surface",
-            "the true surface the tool touches is needed (a PLY mesh, e.g. scene_mesh.ply of uvms synth)",
+            "the true surface the tool touches is needed (a PLY mesh, e.g. scene_mesh.ply of uvms synth; in uvms run, sim.surface_from = \"scan\" takes the scanned surface)",
         )
     })
 }
 
 /// Checks the configuration and reads the simulation's files, before any stage writes: the
-/// surface a mesh, the model's arm one the analytic IK solves.
+/// surface a mesh (with `sim.surface_from = "file"`; the run's own surface comes later, by
+/// [`SimInputs::with_surface`]), the model's arm one the analytic IK solves.
 ///
 /// # Errors
 /// [`Error::Input`] for bad files or configuration.
 pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs> {
     cfg.validate()?;
     frames.validate()?;
-    let surface_file = surface_file(cfg)?;
-    let mesh = read_mesh(surface_file)?;
-    if mesh.triangles.is_empty() {
-        return Err(Error::input(
-            surface_file.display(),
-            "has no triangles: the true surface the tool touches is a triangle mesh (sim.surface)",
-        ));
-    }
-    let mesh = match cfg.surface_frame {
-        SurfaceFrame::Scan => mesh.transformed(&frames.t_world_scan()),
-        SurfaceFrame::World => mesh,
-    };
     let model = crate::model::load(cfg.model.as_deref())?;
     let origin = crate::model::origin(cfg.model.as_deref());
     check_plant_model(&model).map_err(|e| e.in_table(&origin, ""))?;
     Arm::new(&model.arm, &model.environment)?
         .check_puma_structure()
         .map_err(|e| Error::input(origin, e))?;
-    Ok(SimInputs { mesh, model })
+    let inputs = SimInputs {
+        mesh: None,
+        model,
+        t_world_scan: frames.t_world_scan(),
+    };
+    if cfg.surface_from != SurfaceSource::File {
+        return Ok(inputs);
+    }
+    let file = surface_file(cfg)?;
+    let mesh = read_mesh(file)?;
+    inputs.with_surface(mesh, cfg.surface_frame, &file.display().to_string(), "sim.surface")
+}
+
+impl SimInputs {
+    /// The inputs with `mesh`, given in `frame`, as the true surface; `origin` names it in an
+    /// error, `key` the setting that chose it.
+    ///
+    /// # Errors
+    /// [`Error::Input`] if the mesh has no triangles.
+    pub fn with_surface(
+        mut self,
+        mesh: TriangleMesh,
+        frame: SurfaceFrame,
+        origin: &str,
+        key: &str,
+    ) -> Result<Self> {
+        if mesh.triangles.is_empty() {
+            return Err(Error::input(
+                origin,
+                format!("has no triangles: the true surface the tool touches is a triangle mesh ({key})"),
+            ));
+        }
+        self.mesh = Some(match frame {
+            SurfaceFrame::Scan => mesh.transformed(&self.t_world_scan),
+            SurfaceFrame::World => mesh,
+        });
+        Ok(self)
+    }
 }
 
 /// What [`sim_stage`] gives: the summary (as JSON), the readable account, and why the contact
@@ -211,7 +239,16 @@ pub fn sim_stage(
     ctx: &Ctx,
 ) -> Result<SimStage> {
     let bar = ctx.progress(1000, "sim");
-    let result = simulate(trajectory, &inputs.mesh, &inputs.model, cfg, &mut |f| {
+    let mesh = inputs.mesh.as_ref().ok_or_else(|| {
+        Error::input(
+            "sim.surface_from",
+            format!(
+                "\"{}\" takes the run's own surface, which this run did not make",
+                cfg.surface_from.as_str()
+            ),
+        )
+    })?;
+    let result = simulate(trajectory, mesh, &inputs.model, cfg, &mut |f| {
         bar.set_position((f * 1000.0) as u64)
     });
     bar.finish_and_clear();
@@ -352,6 +389,17 @@ pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
     let mut cfg = load_config(args.config.as_deref())?;
     if let Some(s) = &args.surface {
         cfg.sim.surface = Some(relative_to(None, s));
+        cfg.sim.surface_from = SurfaceSource::File;
+    }
+    if cfg.sim.surface_from != SurfaceSource::File {
+        let from = cfg.sim.surface_from.as_str();
+        return Err(Error::input(
+            "sim.surface_from",
+            format!(
+                "\"{from}\" takes the surface uvms run makes on its way; uvms sim takes a mesh file: --surface OUT/{} (the surface uvms run took)",
+                super::run::CONTACT_SURFACE
+            ),
+        ));
     }
     let trajectory = Trajectory::read_csv(&args.trajectory)?;
     check_frames(&trajectory, &args.trajectory, &cfg)?;

@@ -198,6 +198,32 @@ impl Default for DwellConfig {
     }
 }
 
+/// Where the true surface the tool touches comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum SurfaceSource {
+    /// The mesh file `surface`, in `surface_frame`.
+    #[default]
+    File,
+    /// `uvms run` only: the surface the trajectory was planned on, as the check stage
+    /// triangulated it from the scan (the object's `scan_surface.ply`; the seabed's for the line
+    /// pattern): for a real scan, with no truer mesh, the tool touches what the camera saw.
+    Scan,
+    /// `uvms run` only: the reference model aligned to the scan (`reference_surface.ply`).
+    Reference,
+}
+
+impl SurfaceSource {
+    /// The value as the configuration spells it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SurfaceSource::File => "file",
+            SurfaceSource::Scan => "scan",
+            SurfaceSource::Reference => "reference",
+        }
+    }
+}
+
 /// The simulation's configuration (`[sim]` of a pipeline, or `uvms sim --config`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -206,10 +232,13 @@ pub struct SimConfig {
     pub seed: u64,
     /// The plant's model file (TOML); none: the built-in AUV300 + PUMA 560.
     pub model: Option<PathBuf>,
-    /// The true surface the tool touches (PLY mesh).
+    /// The true surface the tool touches (PLY mesh), with `surface_from = "file"`.
     pub surface: Option<PathBuf>,
     /// The frame of `surface`.
     pub surface_frame: SurfaceFrame,
+    /// Where the true surface comes from: the file `surface` (default), or in `uvms run` the
+    /// run's own scanned (`"scan"`) or aligned reference (`"reference"`) surface.
+    pub surface_from: SurfaceSource,
     /// Control rate, Hz.
     pub control_rate_hz: f64,
     /// Plant integration steps per control period.
@@ -255,6 +284,7 @@ impl Default for SimConfig {
             model: None,
             surface: None,
             surface_frame: SurfaceFrame::Scan,
+            surface_from: SurfaceSource::File,
             control_rate_hz: 1000.0,
             plant_substeps: 1,
             integrator: Integrator::SemiImplicitEuler,
@@ -299,6 +329,21 @@ impl SimConfig {
             return Err(Error::input("sim.plant_substeps", "must be between 1 and 1000"));
         }
         non_negative("sim.tail_s", self.tail_s)?;
+        if self.surface_from != SurfaceSource::File {
+            let from = self.surface_from.as_str();
+            if self.surface.is_some() {
+                return Err(Error::input(
+                    "sim.surface",
+                    format!("is given with sim.surface_from = \"{from}\", whose surface is the run's own: give one of them"),
+                ));
+            }
+            if self.surface_frame == SurfaceFrame::World {
+                return Err(Error::input(
+                    "sim.surface_frame",
+                    format!("the run's own surface (sim.surface_from = \"{from}\") is in the scan frame: drop surface_frame or set it to \"scan\""),
+                ));
+            }
+        }
         for (key, v) in [
             ("sim.tail_s", self.tail_s),
             ("sim.dwell.max_wait_s", self.dwell.max_wait_s),
