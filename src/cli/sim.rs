@@ -185,7 +185,12 @@ pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs
     }
     let file = surface_file(cfg)?;
     let mesh = read_mesh(file)?;
-    inputs.with_surface(mesh, cfg.surface_frame, &file.display().to_string(), "sim.surface")
+    inputs.with_surface(
+        mesh,
+        cfg.surface_frame,
+        &file.display().to_string(),
+        "sim.surface",
+    )
 }
 
 impl SimInputs {

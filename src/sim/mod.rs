@@ -334,13 +334,17 @@ impl SimConfig {
             if self.surface.is_some() {
                 return Err(Error::input(
                     "sim.surface",
-                    format!("is given with sim.surface_from = \"{from}\", whose surface is the run's own: give one of them"),
+                    format!(
+                        "is given with sim.surface_from = \"{from}\", whose surface is the run's own: give one of them"
+                    ),
                 ));
             }
             if self.surface_frame == SurfaceFrame::World {
                 return Err(Error::input(
                     "sim.surface_frame",
-                    format!("the run's own surface (sim.surface_from = \"{from}\") is in the scan frame: drop surface_frame or set it to \"scan\""),
+                    format!(
+                        "the run's own surface (sim.surface_from = \"{from}\") is in the scan frame: drop surface_frame or set it to \"scan\""
+                    ),
                 ));
             }
         }
