@@ -21,6 +21,7 @@ use crate::output::OutDir;
 use crate::perception::PerceptionConfig;
 use crate::plan::PlanConfig;
 use crate::sim::{SimConfig, SurfaceFrame, SurfaceSource};
+use crate::trajectory::{Phase, Trajectory};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::fmt::Write;
@@ -105,6 +106,32 @@ impl Pipeline {
     }
 }
 
+/// With `sim.surface_from = "scan"` the tool touches only what the camera saw: a point of the
+/// dwell or the contact phase the plan had to put on the aligned reference (or, for a line, on
+/// the seabed's plane) lies over a hole of the scanned surface, where the tool would fall in.
+///
+/// # Errors
+/// [`Error::Failed`] (stage `sim`) counting those points and saying what to take instead.
+fn scan_covers_path(trajectory: &Trajectory) -> Result<()> {
+    let touching: Vec<_> = [Phase::Dwell, Phase::Contact]
+        .into_iter()
+        .flat_map(|p| trajectory.phase(p))
+        .collect();
+    let holes: Vec<_> = touching.iter().filter(|s| s.fallback).collect();
+    let Some(first) = holes.first() else {
+        return Ok(());
+    };
+    Err(Error::failed(
+        "sim",
+        format!(
+            "sim.surface_from = \"scan\": {} of the {} points in contact lie over holes of the scanned surface (the first at t = {:.2} s; the plan took them from the aligned reference or the seabed's plane), where the tool would fall in: take sim.surface_from = \"reference\" or a mesh file",
+            holes.len(),
+            touching.len(),
+            first.t
+        ),
+    ))
+}
+
 /// Runs `uvms run`.
 ///
 /// # Errors
@@ -158,6 +185,9 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
                     "sim.surface_from = \"scan\": the segmentation found no seabed plane to take the line's surface from",
                 )
             })?;
+            if from == SurfaceSource::Scan {
+                scan_covers_path(&planned.trajectory)?;
+            }
             // What the tool touches, for `uvms sim --surface` and a viewer.
             out.write_with(CONTACT_SURFACE, |w| write_mesh(w, &mesh))?;
             let _ = writeln!(
