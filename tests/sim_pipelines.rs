@@ -759,6 +759,33 @@ fn a_runs_config_reruns_its_simulation() {
     }
 }
 
+/// The committed pipeline `name` with its scene's mesh replaced by the run's scanned surface
+/// (`sim.surface_from = "scan"`), written as `scanned.toml` into `dir` (paths made absolute).
+fn on_the_scan(name: &str, dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(repo(&format!("pipelines/{name}.toml"))).unwrap();
+    let (lines, replaced): (Vec<_>, Vec<_>) = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("surface = ") {
+                ("surface_from = \"scan\"", true)
+            } else {
+                (l, false)
+            }
+        })
+        .unzip();
+    assert_eq!(
+        replaced.iter().filter(|r| **r).count(),
+        1,
+        "{name}: one sim.surface"
+    );
+    let text = lines
+        .join("\n")
+        .replace("../data", repo("data").to_str().unwrap());
+    let p = dir.join("scanned.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
 /// For a real scan, with no truer mesh, the tool touches what the camera saw
 /// (`sim.surface_from = "scan"`): the soil pipeline on the seabed the run triangulated from its
 /// sediment scan instead of the scene's mesh. The surface it took is written (scan frame) and
@@ -767,17 +794,8 @@ fn a_runs_config_reruns_its_simulation() {
 #[test]
 fn soil_sampling_on_the_scanned_seabed() {
     let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(repo("pipelines/soil_sampling.toml")).unwrap();
     let scene = repo("data/scans/sediment/scene_mesh.ply");
-    assert!(text.contains("surface = \"../data/scans/sediment/scene_mesh.ply\""));
-    let text = text
-        .replace(
-            "surface = \"../data/scans/sediment/scene_mesh.ply\"",
-            "surface_from = \"scan\"",
-        )
-        .replace("../data", repo("data").to_str().unwrap());
-    let p = dir.path().join("scanned.toml");
-    std::fs::write(&p, text).unwrap();
+    let p = on_the_scan("soil_sampling", dir.path());
     let out = dir.path().join("out");
     let s = run_pipeline(&p, &out);
     let sim = &s["sim"];
@@ -917,16 +935,7 @@ fn a_ring_around_a_real_milk_carton_on_its_scanned_surface() {
 #[test]
 fn the_scanned_surface_must_cover_the_path() {
     let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(repo("pipelines/bottle_cleaning.toml")).unwrap();
-    let text = text
-        .replace(
-            "surface = \"../data/scans/bottle/scene_mesh.ply\"",
-            "surface_from = \"scan\"",
-        )
-        .replace("../data", repo("data").to_str().unwrap());
-    assert!(text.contains("surface_from"));
-    let p = dir.path().join("holes.toml");
-    std::fs::write(&p, text).unwrap();
+    let p = on_the_scan("bottle_cleaning", dir.path());
     let out = dir.path().join("out");
     let o = run(&["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(1));
