@@ -942,7 +942,7 @@ fn the_scanned_surface_must_cover_the_path() {
     let err = String::from_utf8_lossy(&o.stderr);
     let err = err.lines().last().unwrap_or_default();
     assert!(
-        err.contains("points in contact lie over holes of the scanned surface")
+        err.contains("points of the dwell and contact phases lie over holes of the scanned surface")
             && err.contains("surface_from = \"reference\""),
         "{err}"
     );

@@ -124,7 +124,7 @@ fn scan_covers_path(trajectory: &Trajectory) -> Result<()> {
     Err(Error::failed(
         "sim",
         format!(
-            "sim.surface_from = \"scan\": {} of the {} points in contact lie over holes of the scanned surface (the first at t = {:.2} s; the plan took them from the aligned reference or the seabed's plane), where the tool would fall in: take sim.surface_from = \"reference\" or a mesh file",
+            "sim.surface_from = \"scan\": {} of the {} points of the dwell and contact phases lie over holes of the scanned surface (the first at t = {:.2} s; the plan took them from the aligned reference or the seabed's plane), where the tool would fall in: take sim.surface_from = \"reference\" or a mesh file",
             holes.len(),
             touching.len(),
             first.t
