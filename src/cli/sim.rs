@@ -104,6 +104,17 @@ pub fn sim_text(s: &SimSummary) -> String {
         s.figures.auv_deviation_max_m * 1e3,
         s.figures.attitude_deviation_max_rad.to_degrees()
     );
+    if let (Some(median), Some(max)) = (
+        s.figures.thrust_utilisation_contact_median,
+        s.figures.thrust_utilisation_contact_max,
+    ) {
+        let _ = writeln!(
+            t,
+            "  thrusters  in contact the most loaded at a median {:.0} % of its thrust (at most {:.0} %)",
+            100.0 * median,
+            100.0 * max
+        );
+    }
     let _ = writeln!(
         t,
         "  identified joint moments within {:.3} N·m, force along k within {:.2} N",

@@ -720,6 +720,7 @@ pub fn simulate(
             },
             r: (state.t_world_body.translation.vector - h.translation.vector).norm(),
             attitude: state.t_world_body.rotation.angle_to(&h.rotation),
+            thrust_utilisation: alloc.utilisation,
         });
         let mut first_acc = None;
         for sub in 0..cfg.plant_substeps {

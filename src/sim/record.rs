@@ -169,6 +169,9 @@ pub struct Observation {
     pub r: f64,
     /// Vehicle attitude deviation, rad.
     pub attitude: f64,
+    /// The thrust the stabilisation asked for, as the largest `|T_j|/T_max,j` of its
+    /// allocation before any scaling (over 1: saturated).
+    pub thrust_utilisation: f64,
 }
 
 /// The figures the recorder gathers over a run (keys of the `sim` summary).
@@ -216,6 +219,12 @@ pub struct Figures {
     pub moment_id_error_contact_max_nm: Option<f64>,
     /// Largest error of the identified force along `k` once settled, N.
     pub force_id_error_max_n: f64,
+    /// Median over the control periods in contact of the thrust the stabilisation asked for,
+    /// as the largest `|T_j|/T_max,j` (over 1: saturated; none: never in contact): the
+    /// thrusters' load that the hover point's static `hover_thrust_utilisation` estimates.
+    pub thrust_utilisation_contact_median: Option<f64>,
+    /// Its largest value.
+    pub thrust_utilisation_contact_max: Option<f64>,
 }
 
 /// Collects the rows and the running figures.
@@ -236,6 +245,7 @@ pub struct Recorder {
     last_t: Option<f64>,
     m_ez_error: f64,
     m_ez_errors_contact: Vec<f64>,
+    thrust_contact: Vec<f64>,
     deviation: f64,
     path_error: f64,
     r: f64,
@@ -261,6 +271,7 @@ impl Recorder {
             last_t: None,
             m_ez_error: 0.0,
             m_ez_errors_contact: Vec::new(),
+            thrust_contact: Vec::new(),
             deviation: 0.0,
             path_error: 0.0,
             r: 0.0,
@@ -305,6 +316,7 @@ impl Recorder {
         self.m_ez_error = self.m_ez_error.max(o.m_ez_error);
         if o.in_contact {
             self.m_ez_errors_contact.push(o.m_ez_error);
+            self.thrust_contact.push(o.thrust_utilisation);
         }
         self.deviation = self.deviation.max(o.deviation);
         self.path_error = self.path_error.max(o.path_error);
@@ -317,7 +329,7 @@ impl Recorder {
         let (sum, sum2, n, min) = self.settled;
         let nf = n.max(1) as f64;
         let mut errors = self.m_ez_errors_contact.clone();
-        let mut quantile = |q: f64| quantile(&mut errors, q);
+        let mut thrust = self.thrust_contact.clone();
         Figures {
             force_setpoint_n: self.setpoint,
             force_settled_mean_n: if n > 0 { sum / nf } else { f64::NAN },
@@ -333,10 +345,12 @@ impl Recorder {
             contact_lost_s: self.lost,
             first_contact_s: self.first_contact,
             moment_id_error_max_nm: self.m_ez_error,
-            moment_id_error_contact_median_nm: quantile(0.5),
-            moment_id_error_contact_p95_nm: quantile(0.95),
-            moment_id_error_contact_max_nm: quantile(1.0),
+            moment_id_error_contact_median_nm: quantile(&mut errors, 0.5),
+            moment_id_error_contact_p95_nm: quantile(&mut errors, 0.95),
+            moment_id_error_contact_max_nm: quantile(&mut errors, 1.0),
             force_id_error_max_n: self.force_id_error,
+            thrust_utilisation_contact_median: quantile(&mut thrust, 0.5),
+            thrust_utilisation_contact_max: quantile(&mut thrust, 1.0),
         }
     }
 
@@ -574,6 +588,7 @@ mod tests {
             path_error: 0.0,
             r: 0.0,
             attitude: 0.0,
+            thrust_utilisation: 0.0,
         }
     }
 
@@ -635,22 +650,32 @@ mod tests {
         assert_eq!(f.moment_id_error_max_nm, 9.0);
     }
 
-    /// The identification error's quantiles are taken over the periods in contact only; the
-    /// run's largest error over every period.
+    /// The identification error's and the thrust's quantiles are taken over the periods in
+    /// contact only; the run's largest error over every period.
     #[test]
-    fn identification_error_quantiles_in_contact() {
+    fn quantiles_in_contact() {
         let mut rec = Recorder::new(60.0, 1.0);
-        rec.observe(&observation(0.0, false, 50.0));
-        assert_eq!(rec.figures().moment_id_error_contact_median_nm, None);
-        // 1, 2, ..., 100 N·m in contact, shuffled.
+        rec.observe(&Observation {
+            thrust_utilisation: 3.0,
+            ..observation(0.0, false, 50.0)
+        });
+        let f = rec.figures();
+        assert_eq!(f.moment_id_error_contact_median_nm, None);
+        assert_eq!(f.thrust_utilisation_contact_max, None);
+        // 1, 2, ..., 100 N·m in contact, shuffled, with thrusts of a hundredth of that.
         for k in 0..100 {
             let e = ((k * 37) % 100 + 1) as f64;
-            rec.observe(&observation(1.0 + k as f64 * 1e-3, true, e));
+            rec.observe(&Observation {
+                thrust_utilisation: e / 100.0,
+                ..observation(1.0 + k as f64 * 1e-3, true, e)
+            });
         }
         let f = rec.figures();
         assert_eq!(f.moment_id_error_max_nm, 100.0);
         assert_eq!(f.moment_id_error_contact_median_nm, Some(51.0));
         assert_eq!(f.moment_id_error_contact_p95_nm, Some(95.0));
         assert_eq!(f.moment_id_error_contact_max_nm, Some(100.0));
+        assert_eq!(f.thrust_utilisation_contact_median, Some(0.51));
+        assert_eq!(f.thrust_utilisation_contact_max, Some(1.0));
     }
 }
