@@ -336,8 +336,8 @@ fn operation_failure(
             ),
         ));
     };
-    (figures.contact_lost_s > 0.0).then(|| {
-        Error::failed(
+    if figures.contact_lost_s > 0.0 {
+        return Some(Error::failed(
             "sim",
             format!(
                 "the tool lost the surface for {:.3} s in all after its first contact at {first:.2} s, though the trajectory's contact phase {asks} (the products are written; the thrusters saturated in {:.1} % of the control periods, {} tool targets out of the arm's reach, ‖e‖ up to {:.1} mm)",
@@ -346,8 +346,42 @@ fn operation_failure(
                 summary.unreachable_steps,
                 1e3 * figures.tool_deviation_max_m
             ),
-        )
-    })
+        ));
+    }
+    // A constant force asked for and not held: the contact operation did not apply it.
+    let constant = trajectory.phase(Phase::Contact).all(|s| s.force == force);
+    let off = figures.force_settled_mean_n - force;
+    if force <= 0.0 || !constant || off.abs() <= cfg.dwell.tolerance_n {
+        return None;
+    }
+    let mut why = Vec::new();
+    if figures.force_offset_max_m >= cfg.force.max_offset_m * (1.0 - 1e-9) {
+        why.push(format!(
+            "the force loop's offset reached its limit, sim.force.max_offset_m = {} m (a surface softer or farther than planned, or too small a limit)",
+            cfg.force.max_offset_m
+        ));
+    }
+    if summary.dwell_wait_s >= cfg.dwell.max_wait_s {
+        why.push(format!(
+            "the dwell waited its {} s (sim.dwell.max_wait_s) without the force settling",
+            cfg.dwell.max_wait_s
+        ));
+    }
+    why.push(format!(
+        "the thrusters saturated in {:.1} % of the control periods, ‖e‖ up to {:.1} mm",
+        100.0 * summary.thrust_saturated_fraction,
+        1e3 * figures.tool_deviation_max_m
+    ));
+    Some(Error::failed(
+        "sim",
+        format!(
+            "the force along k settled at {:.2} N on average against the {force:.1} N asked for, {:.2} N off, beyond sim.dwell.tolerance_n = {} N (the products are written; {})",
+            figures.force_settled_mean_n,
+            off.abs(),
+            cfg.dwell.tolerance_n,
+            why.join("; ")
+        ),
+    ))
 }
 
 /// A surface in the scan frame is placed in the world by the configuration's `[frames]`: they

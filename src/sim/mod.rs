@@ -462,6 +462,24 @@ pub fn simulate(
             ),
         ));
     }
+    // The settled force is measured from `settle_time_s` after the first contact (about the
+    // dwell's start) to the contact phase's end: a settling time as long leaves nothing of it.
+    let touching = trajectory
+        .samples
+        .iter()
+        .find(|s| matches!(s.phase, Phase::Dwell | Phase::Contact));
+    if let (Some(start), Some(end)) = (touching, trajectory.phase(Phase::Contact).last())
+        && cfg.settle_time_s >= end.t - start.t
+    {
+        return Err(Error::input(
+            "sim.settle_time_s",
+            format!(
+                "{} s from the first contact would outlast the trajectory's dwell and contact phases ({:.2} s): no settled force would be left to measure",
+                cfg.settle_time_s,
+                end.t - start.t
+            ),
+        ));
+    }
     check_plant_model(plant_model)?;
     let mut plant_model = plant_model.clone();
     plant_model.environment.current = cfg.scenario.current_m_s;
@@ -720,6 +738,7 @@ pub fn simulate(
             },
             r: (state.t_world_body.translation.vector - h.translation.vector).norm(),
             attitude: state.t_world_body.rotation.angle_to(&h.rotation),
+            offset,
             thrust_utilisation: alloc.utilisation,
         });
         let mut first_acc = None;

@@ -169,6 +169,8 @@ pub struct Observation {
     pub r: f64,
     /// Vehicle attitude deviation, rad.
     pub attitude: f64,
+    /// The FCU's offset `x̃` along `k`, m.
+    pub offset: f64,
     /// The thrust the stabilisation asked for, as the largest `|T_j|/T_max,j` of its
     /// allocation before any scaling (over 1: saturated).
     pub thrust_utilisation: f64,
@@ -225,6 +227,9 @@ pub struct Figures {
     pub thrust_utilisation_contact_median: Option<f64>,
     /// Its largest value.
     pub thrust_utilisation_contact_max: Option<f64>,
+    /// Largest magnitude of the FCU's offset `x̃` along `k` (eq. 14), m: at
+    /// `sim.force.max_offset_m` the force loop could not push further.
+    pub force_offset_max_m: f64,
 }
 
 /// Collects the rows and the running figures.
@@ -246,6 +251,7 @@ pub struct Recorder {
     m_ez_error: f64,
     m_ez_errors_contact: Vec<f64>,
     thrust_contact: Vec<f64>,
+    offset: f64,
     deviation: f64,
     path_error: f64,
     r: f64,
@@ -272,6 +278,7 @@ impl Recorder {
             m_ez_error: 0.0,
             m_ez_errors_contact: Vec::new(),
             thrust_contact: Vec::new(),
+            offset: 0.0,
             deviation: 0.0,
             path_error: 0.0,
             r: 0.0,
@@ -318,6 +325,7 @@ impl Recorder {
             self.m_ez_errors_contact.push(o.m_ez_error);
             self.thrust_contact.push(o.thrust_utilisation);
         }
+        self.offset = self.offset.max(o.offset.abs());
         self.deviation = self.deviation.max(o.deviation);
         self.path_error = self.path_error.max(o.path_error);
         self.r = self.r.max(o.r);
@@ -351,6 +359,7 @@ impl Recorder {
             force_id_error_max_n: self.force_id_error,
             thrust_utilisation_contact_median: quantile(&mut thrust, 0.5),
             thrust_utilisation_contact_max: quantile(&mut thrust, 1.0),
+            force_offset_max_m: self.offset,
         }
     }
 
@@ -588,6 +597,7 @@ mod tests {
             path_error: 0.0,
             r: 0.0,
             attitude: 0.0,
+            offset: 0.0,
             thrust_utilisation: 0.0,
         }
     }
