@@ -112,7 +112,7 @@ impl Pipeline {
 ///
 /// # Errors
 /// [`Error::Failed`] (stage `sim`) counting those points and saying what to take instead.
-fn scan_covers_path(trajectory: &Trajectory) -> Result<()> {
+fn scan_covers_path(trajectory: &Trajectory, reference: bool) -> Result<()> {
     let touching: Vec<_> = [Phase::Dwell, Phase::Contact]
         .into_iter()
         .flat_map(|p| trajectory.phase(p))
@@ -121,10 +121,15 @@ fn scan_covers_path(trajectory: &Trajectory) -> Result<()> {
     let Some(first) = holes.first() else {
         return Ok(());
     };
+    let instead = if reference {
+        "sim.surface_from = \"reference\" or a mesh file"
+    } else {
+        "a mesh file (sim.surface)"
+    };
     Err(Error::failed(
         "sim",
         format!(
-            "sim.surface_from = \"scan\": {} of the {} points of the dwell and contact phases lie over holes of the scanned surface (the first at t = {:.2} s; the plan took them from the aligned reference or the seabed's plane), where the tool would fall in: take sim.surface_from = \"reference\" or a mesh file",
+            "sim.surface_from = \"scan\": {} of the {} points of the dwell and contact phases lie over holes of the scanned surface (the first at t = {:.2} s; the plan took them from the aligned reference or the seabed's plane), where the tool would fall in: take {instead}",
             holes.len(),
             touching.len(),
             first.t
@@ -186,7 +191,7 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
                 )
             })?;
             if from == SurfaceSource::Scan {
-                scan_covers_path(&planned.trajectory)?;
+                scan_covers_path(&planned.trajectory, p.input.reference.is_some())?;
             }
             // What the tool touches, for `uvms sim --surface` and a viewer.
             out.write_with(CONTACT_SURFACE, |w| write_mesh(w, &mesh))?;
