@@ -13,7 +13,8 @@
 //!
 //! Vertices whose position is not finite are dropped and counted ([`PlyInfo::non_finite_dropped`]);
 //! the remaining vertices keep their order and are renumbered, and a triangle that uses a
-//! dropped vertex is dropped too ([`PlyInfo::triangles_dropped`]). A normal that is not finite is
+//! dropped vertex is dropped too ([`PlyInfo::triangles_dropped`]; [`read_mesh`], which reads a
+//! surface, refuses such a mesh). A normal that is not finite is
 //! kept as read.
 //!
 //! Every malformed file is an [`Error::Input`] naming the file and the problem in one line. The
@@ -96,17 +97,29 @@ pub fn read_cloud(path: &Path) -> Result<(PointCloud, PlyInfo)> {
     Ok((p.cloud, p.info))
 }
 
-/// Reads a PLY mesh: its finite vertices and its faces, fan-triangulated.
+/// Reads a PLY mesh: its finite vertices and its faces, fan-triangulated. A vertex that is not
+/// finite and that no face uses is dropped; one that a face uses is an error (the surface would
+/// have a hole there: a tool would fall through it, a model would lose part of its shape).
 ///
 /// # Errors
 /// As [`read_cloud`], plus: no `face` element, a face without a `vertex_indices`/`vertex_index`
-/// integer list, a face with fewer than 3 indices, or an index out of range.
+/// integer list, a face with fewer than 3 indices, an index out of range, or a face using a
+/// vertex that is not finite.
 pub fn read_mesh(path: &Path) -> Result<TriangleMesh> {
     let p = ply_read::read(path, Faces::Read)?;
     if !p.has_face_element {
         return Err(Error::input(
             path.display(),
             "the header declares no 'face' element: a point cloud, not a mesh",
+        ));
+    }
+    if p.info.triangles_dropped > 0 {
+        return Err(Error::input(
+            path.display(),
+            format!(
+                "{} triangles use a vertex whose position is not finite (NaN or infinite; {} such vertices): the surface would have holes there",
+                p.info.triangles_dropped, p.info.non_finite_dropped
+            ),
         ));
     }
     Ok(TriangleMesh {
@@ -282,4 +295,37 @@ pub fn write_lines(
         }
     }
     w.write_all(&buf).map_err(io)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A mesh whose triangle uses a vertex that is not finite is refused (a hole in the
+    /// surface), naming the file; a non-finite vertex no face uses is dropped.
+    #[test]
+    fn a_mesh_with_a_non_finite_vertex_in_a_face_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let mesh = |name: &str, faces: &str| {
+            let path = dir.path().join(name);
+            std::fs::write(
+                &path,
+                format!(
+                    "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+                     property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+                     end_header\n0 0 0\n1 0 0\n0 1 0\nnan 0 0\n{faces}\n"
+                ),
+            )
+            .unwrap();
+            path
+        };
+        let unused = read_mesh(&mesh("unused.ply", "3 0 1 2")).unwrap();
+        assert_eq!((unused.vertices.len(), unused.triangles.len()), (3, 1));
+        let path = mesh("used.ply", "3 0 1 3");
+        let e = read_mesh(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("used.ply") && e.contains("1 triangles use a vertex whose position is not finite"),
+            "{e}"
+        );
+    }
 }
