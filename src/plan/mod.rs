@@ -321,6 +321,7 @@ pub fn plan(input: &PlanInput, config: &PlanConfig) -> Result<Plan> {
         &normals,
         window,
         config.tool.service_angle_deg.to_radians(),
+        config.tool.x_axis,
     );
     let max_rate = config.tool.max_rate_deg_s.to_radians();
     let (mut timed, stats) = timing::schedule(&samples, &orientations, spacing, &config.timing, max_rate);

@@ -1,8 +1,10 @@
 //! The tool frame `G` at every point of the path: the `X_G`, `Y_G` of the seed's eq. (18).
 //!
 //! `z_G` is the (smoothed) surface normal reversed, pointing into the surface; `x_G` is the path
-//! tangent projected onto the tangent plane (the direction of motion); `y_G = z_G × x_G` makes the
-//! frame right-handed. An optional service angle then turns the frame about `y_G`, tilting the
+//! tangent projected onto the tangent plane (the direction of motion; with
+//! `x_axis = "steady"`, for a tool symmetric about its axis, the previous point's `x_G` projected
+//! instead, so that the tool does not turn about `k` where the path reverses, at a raster's row
+//! ends); `y_G = z_G × x_G` makes the frame right-handed. An optional service angle then turns the frame about `y_G`, tilting the
 //! tool axis towards the direction of motion (positive: the holder trails the tip). The desired
 //! force direction is `k = z_G`.
 //!
@@ -25,6 +27,21 @@ pub struct ToolConfig {
     /// The fastest the tool's orientation may turn, degrees per second; the tool slows down
     /// where the path would turn it faster.
     pub max_rate_deg_s: f64,
+    /// What `x_G` follows.
+    pub x_axis: XAxis,
+}
+
+/// What the tool frame's `x_G` follows along the path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum XAxis {
+    /// The direction of motion (a sampler, a scraper: a tool with a front).
+    #[default]
+    Travel,
+    /// The first point's direction of motion, carried along the surface (each point's `x_G`
+    /// the previous one's projected onto its tangent plane): a tool symmetric about its axis (a
+    /// brush) turns about `k` only as the surface does, not where the path reverses.
+    Steady,
 }
 
 impl Default for ToolConfig {
@@ -32,6 +49,7 @@ impl Default for ToolConfig {
         ToolConfig {
             service_angle_deg: 0.0,
             max_rate_deg_s: 30.0,
+            x_axis: XAxis::Travel,
         }
     }
 }
@@ -90,19 +108,24 @@ pub fn smooth_along(normals: &[Vector3<f64>], window: usize) -> Vec<Vector3<f64>
 }
 
 /// Tool orientations along a path sampled at uniform spacing: tangents by central differences
-/// over `±window` samples, frames by [`tool_frame`], quaternion signs kept continuous.
+/// over `±window` samples (with [`XAxis::Steady`] the first point's only, then the previous
+/// `x_G`), frames by [`tool_frame`], quaternion signs kept continuous.
 pub fn tool_frames(
     points: &[Point3<f64>],
     normals: &[Vector3<f64>],
     window: usize,
     service_angle: f64,
+    x_axis: XAxis,
 ) -> Vec<UnitQuaternion<f64>> {
     let n = points.len().min(normals.len());
     let w = window.max(1);
     let mut out: Vec<UnitQuaternion<f64>> = Vec::with_capacity(n);
     let mut previous_x: Option<Vector3<f64>> = None;
     for i in 0..n {
-        let tangent = points[(i + w).min(n - 1)] - points[i.saturating_sub(w)];
+        let tangent = match (x_axis, &previous_x) {
+            (XAxis::Steady, Some(x)) => *x,
+            _ => points[(i + w).min(n - 1)] - points[i.saturating_sub(w)],
+        };
         let r = tool_frame(&normals[i], &tangent, previous_x.as_ref(), service_angle);
         // Keep the un-tilted x_G for the next point's fallback.
         let untilted = r * Rotation3::from_axis_angle(&Vector3::y_axis(), -service_angle);
@@ -179,7 +202,7 @@ mod tests {
             })
             .collect();
         let normals: Vec<Vector3<f64>> = pts.iter().map(|p| p.coords).collect();
-        let q = tool_frames(&pts, &normals, 3, 0.0);
+        let q = tool_frames(&pts, &normals, 3, 0.0, XAxis::Travel);
         for (i, w) in q.windows(2).enumerate() {
             // One degree of arc turns the frame by one degree.
             assert!((w[0].angle_to(&w[1]).to_degrees() - 1.0).abs() < 1e-6, "{i}");
