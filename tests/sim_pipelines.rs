@@ -1000,3 +1000,46 @@ fn a_force_not_held_is_a_failed_run() {
         "{err}"
     );
 }
+
+/// A raster on the bottle: each row's end reverses the path. With the tool's `x_G` following the
+/// travel the tool must turn half round about `k` there, and no hover point follows it (exit 1
+/// at the hover point); with a tool symmetric about its axis (`[plan.tool] x_axis = "steady"`)
+/// the whole raster (86 s in contact, 1708 samples) is cleaned at the bottle's figures.
+#[test]
+fn a_raster_on_the_bottle_with_a_symmetric_tool() {
+    let raster = "[plan]\npattern = \"raster\"";
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo("pipelines/bottle_cleaning.toml"))
+        .unwrap()
+        .replace("../data", repo("data").to_str().unwrap());
+    assert!(text.contains("[plan]\npattern = \"ring\""));
+    let travel = dir.path().join("travel.toml");
+    std::fs::write(&travel, text.replace("[plan]\npattern = \"ring\"", raster)).unwrap();
+    let o = run(&[
+        "run",
+        travel.to_str().unwrap(),
+        "--out",
+        dir.path().join("t").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("hover: no hover point reaches"), "{err}");
+    let steady = dir.path().join("steady.toml");
+    std::fs::write(
+        &steady,
+        text.replace(
+            "[plan]\npattern = \"ring\"",
+            &format!("{raster}\n\n[plan.tool]\nx_axis = \"steady\""),
+        ),
+    )
+    .unwrap();
+    let s = run_pipeline(&steady, &dir.path().join("s"));
+    let sim = &s["sim"];
+    let f = |key: &str| sim[key].as_f64().unwrap();
+    assert!(sim["failure"].is_null() && f("contact_lost_s") == 0.0, "{sim}");
+    assert!((f("force_settled_mean_n") - 60.0).abs() <= 1.0, "{sim}");
+    assert!(f("force_max_n") <= 85.0, "{sim}");
+    assert!(f("tool_deviation_max_m") <= 0.006, "{sim}");
+    assert!(f("auv_deviation_max_m") <= 0.04, "{sim}");
+    assert!(f("simulated_s") > 100.0, "{sim}");
+}

@@ -211,4 +211,36 @@ mod tests {
         let x = q[90] * Vector3::x();
         assert!((x - Vector3::new(-1.0, 0.0, 0.0)).norm() < 1e-9, "{x}");
     }
+
+    /// Back and forth along a line on a plane, as a raster's rows: following the travel, `x_G`
+    /// reverses at the turn (a half turn about `k`); steady, it keeps the first row's direction
+    /// and the tool does not turn at all. Over a bend (the normal tilting along the row, up to
+    /// 120°) the steady `x_G` follows the surface: it stays in the tangent plane.
+    #[test]
+    fn a_steady_x_axis_does_not_turn_where_the_path_reverses() {
+        let pts: Vec<Point3<f64>> = (0..=40)
+            .map(|i| Point3::new(if i <= 20 { i as f64 } else { (40 - i) as f64 }, 0.0, 0.0))
+            .collect();
+        let up = vec![Vector3::z(); pts.len()];
+        let travel = tool_frames(&pts, &up, 2, 0.0, XAxis::Travel);
+        let steady = tool_frames(&pts, &up, 2, 0.0, XAxis::Steady);
+        let x = |q: &UnitQuaternion<f64>| q * Vector3::x();
+        assert!((x(&travel[0]) - Vector3::x()).norm() < 1e-12);
+        assert!((x(&travel[40]) + Vector3::x()).norm() < 1e-12);
+        assert!(travel[0].angle_to(&travel[40]) > 3.14);
+        assert!(steady.iter().all(|q| q.angle_to(&steady[0]) < 1e-12));
+        let ridge: Vec<Vector3<f64>> = (0..=40)
+            .map(|i| {
+                let a = (i as f64 * 3.0).to_radians();
+                Vector3::new(a.sin(), 0.0, a.cos())
+            })
+            .collect();
+        for (q, n) in tool_frames(&pts, &ridge, 2, 0.0, XAxis::Steady)
+            .iter()
+            .zip(&ridge)
+        {
+            assert!((q * Vector3::z() + n).norm() < 1e-12);
+            assert!(x(q).dot(n).abs() < 1e-12);
+        }
+    }
 }
