@@ -26,6 +26,19 @@ fn run_in(dir: &Path, args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// `uvms --quiet ARGS`, expected to fail with exit `code` and a one-line message: the message.
+fn refused(args: &[&str], code: i32) -> String {
+    refused_output(&run(&[&["--quiet"], args].concat()), code)
+}
+
+/// The one-line message of a `--quiet` run `o` expected to fail with exit `code`.
+fn refused_output(o: &Output, code: i32) -> String {
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(code), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    err
+}
+
 /// Runs a pipeline file (a relative path from the repository's folder); its summary. A run
 /// whose contact operation failed (exit 1, its products written) has the reason under
 /// `sim.failure`, and its one-line message on stderr.
@@ -841,21 +854,20 @@ fn soil_sampling_on_the_scanned_seabed() {
         assert!((a - b).abs() <= 5e-5, "{key}: run {a}, rerun {b}");
     }
     // Without --surface, uvms sim has no run to take the surface from: it says what to give.
-    let o = run(&[
-        "sim",
-        "--trajectory",
-        out.join("trajectory.csv").to_str().unwrap(),
-        "--config",
-        out.join("config.toml").to_str().unwrap(),
-        "--out",
-        dir.path().join("refused").to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = refused(
+        &[
+            "sim",
+            "--trajectory",
+            out.join("trajectory.csv").to_str().unwrap(),
+            "--config",
+            out.join("config.toml").to_str().unwrap(),
+            "--out",
+            dir.path().join("refused").to_str().unwrap(),
+        ],
+        2,
+    );
     assert!(
-        err.lines().count() == 1
-            && err.contains("sim.surface_from")
-            && err.contains("--surface OUT/contact_surface.ply"),
+        err.contains("sim.surface_from") && err.contains("--surface OUT/contact_surface.ply"),
         "{err}"
     );
     assert!(!dir.path().join("refused").exists());
@@ -865,16 +877,10 @@ fn soil_sampling_on_the_scanned_seabed() {
         "surface_from = \"scan\"\nsurface = \"x.ply\"",
     );
     std::fs::write(&p, both).unwrap();
-    let o = run(&[
-        "run",
-        p.to_str().unwrap(),
-        "--out",
-        dir.path().join("both").to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
+    let both = dir.path().join("both");
+    let err = refused(&["run", p.to_str().unwrap(), "--out", both.to_str().unwrap()], 2);
     assert!(
-        err.lines().count() == 1 && err.contains("scanned.toml: sim.surface: is given with sim.surface_from"),
+        err.contains("scanned.toml: sim.surface: is given with sim.surface_from"),
         "{err}"
     );
 }
@@ -937,10 +943,7 @@ fn the_scanned_surface_must_cover_the_path() {
     let dir = tempfile::tempdir().unwrap();
     let p = on_the_scan("bottle_cleaning", dir.path());
     let out = dir.path().join("out");
-    let o = run(&["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&o.stderr);
-    let err = err.lines().last().unwrap_or_default();
+    let err = refused(&["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()], 1);
     assert!(
         err.contains("points of the dwell and contact phases lie over holes of the scanned surface")
             && err.contains("surface_from = \"reference\""),
@@ -992,11 +995,10 @@ fn a_force_not_held_is_a_failed_run() {
         resolved.replace("settle_time_s = 1.5", "settle_time_s = 100.0"),
     )
     .unwrap();
-    let o = sim_bottle_trajectory(&config, &dir.path().join("late"), &[]);
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
+    let o = sim_bottle_trajectory(&config, &dir.path().join("late"), &["--quiet"]);
+    let err = refused_output(&o, 2);
     assert!(
-        err.lines().count() == 1 && err.contains("sim.settle_time_s: 100 s from the first contact"),
+        err.contains("sim.settle_time_s: 100 s from the first contact"),
         "{err}"
     );
 }
@@ -1015,14 +1017,11 @@ fn a_raster_on_the_bottle_with_a_symmetric_tool() {
     assert!(text.contains("[plan]\npattern = \"ring\""));
     let travel = dir.path().join("travel.toml");
     std::fs::write(&travel, text.replace("[plan]\npattern = \"ring\"", raster)).unwrap();
-    let o = run(&[
-        "run",
-        travel.to_str().unwrap(),
-        "--out",
-        dir.path().join("t").to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&o.stderr);
+    let t = dir.path().join("t");
+    let err = refused(
+        &["run", travel.to_str().unwrap(), "--out", t.to_str().unwrap()],
+        1,
+    );
     assert!(err.contains("hover: no hover point reaches"), "{err}");
     let steady = dir.path().join("steady.toml");
     std::fs::write(

@@ -227,7 +227,7 @@ mod tests {
         let x = |q: &UnitQuaternion<f64>| q * Vector3::x();
         assert!((x(&travel[0]) - Vector3::x()).norm() < 1e-12);
         assert!((x(&travel[40]) + Vector3::x()).norm() < 1e-12);
-        assert!(travel[0].angle_to(&travel[40]) > 3.14);
+        assert!(travel[0].angle_to(&travel[40]) > std::f64::consts::PI - 1e-9);
         assert!(steady.iter().all(|q| q.angle_to(&steady[0]) < 1e-12));
         let ridge: Vec<Vector3<f64>> = (0..=40)
             .map(|i| {
