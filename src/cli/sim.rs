@@ -354,6 +354,15 @@ fn operation_failure(
     if force <= 0.0 || !constant || off.abs() <= cfg.dwell.tolerance_n {
         return None;
     }
+    if off.is_nan() {
+        return Some(Error::failed(
+            "sim",
+            format!(
+                "the tool first touched at {first:.2} s, too late for the force to settle within the contact phase (to {to:.2} s, sim.settle_time_s = {} s after the touch): the force asked for was never held (the products are written)",
+                cfg.settle_time_s
+            ),
+        ));
+    }
     let mut why = Vec::new();
     if figures.force_offset_max_m >= cfg.force.max_offset_m * (1.0 - 1e-9) {
         why.push(format!(
