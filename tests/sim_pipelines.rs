@@ -951,6 +951,16 @@ fn the_scanned_surface_must_cover_the_path() {
     );
     // The plan's products are whole; the simulation's never started.
     assert!(out.join("trajectory.csv").exists() && !out.join("timeseries.csv").exists());
+    // The aligned reference holds the object, not the seabed a line runs on: refused up front.
+    let line = std::fs::read_to_string(&p)
+        .unwrap()
+        .replace("surface_from = \"scan\"", "surface_from = \"reference\"")
+        .replace("pattern = \"ring\"", "pattern = \"line\"");
+    std::fs::write(&p, line).unwrap();
+    let lined = dir.path().join("line");
+    let err = refused(&["run", p.to_str().unwrap(), "--out", lined.to_str().unwrap()], 2);
+    assert!(err.contains("the line pattern runs on the seabed"), "{err}");
+    assert!(!lined.exists());
 }
 
 /// A force asked for and not held is a failed contact operation: on a surface ten times softer

@@ -20,6 +20,7 @@ use crate::io::ply::write_mesh;
 use crate::output::OutDir;
 use crate::perception::PerceptionConfig;
 use crate::plan::PlanConfig;
+use crate::plan::patterns::PatternKind;
 use crate::sim::{SimConfig, SurfaceFrame, SurfaceSource};
 use crate::trajectory::{Phase, Trajectory};
 use serde::{Deserialize, Serialize};
@@ -98,6 +99,12 @@ impl Pipeline {
                 return Err(Error::input(
                     format!("{origin}: sim.surface_from"),
                     "\"reference\" takes the aligned reference model: input.reference is not given",
+                ));
+            }
+            SurfaceSource::Reference if p.plan.pattern == PatternKind::Line => {
+                return Err(Error::input(
+                    format!("{origin}: sim.surface_from"),
+                    "\"reference\" takes the aligned reference model, and the line pattern runs on the seabed beside it: take \"scan\" (the scanned seabed) or a mesh file",
                 ));
             }
             _ => {}
