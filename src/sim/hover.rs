@@ -305,9 +305,45 @@ fn wrist_clear(q: &JointVector, side: f64, cfg: &HoverConfig) -> bool {
     q[4].abs() >= cfg.min_wrist_angle_rad && q[4] * side > 0.0
 }
 
+/// Why a branch cannot go on to the next sample.
+enum Stop {
+    /// No IK solution within the joint limits.
+    OutOfReach,
+    /// The nearest solution needs a joint to turn this far, rad.
+    Jump(f64),
+    /// The wrist would cross its singularity (`q₅` changes sign).
+    Through,
+    /// The wrist would come this near its singularity, rad.
+    Near(f64),
+}
+
+/// The branch at `q`, its wrist on `side`, moved on to `target` (base frame): the IK solution
+/// nearest `q`, unless it is out of reach, a joint jumps by more than `max_joint_step_rad`, or
+/// the wrist leaves `min_wrist_angle_rad` from its singularity on that side.
+fn step(
+    arm: &Arm,
+    target: &Isometry3<f64>,
+    q: &JointVector,
+    side: f64,
+    cfg: &HoverConfig,
+) -> Result<std::result::Result<JointVector, Stop>> {
+    let Some(next) = arm.ik_nearest(target, q)? else {
+        return Ok(Err(Stop::OutOfReach));
+    };
+    let jump = (next - q).amax();
+    Ok(if jump > cfg.max_joint_step_rad {
+        Err(Stop::Jump(jump))
+    } else if next[4] * side <= 0.0 {
+        Err(Stop::Through)
+    } else if !wrist_clear(&next, side, cfg) {
+        Err(Stop::Near(next[4].abs()))
+    } else {
+        Ok(next)
+    })
+}
+
 /// Follows the chosen station's branch from `q_start` through every sample of `trajectory`
-/// (the search checked about `cfg.samples` of them): each reached, no joint jumping by more
-/// than `max_joint_step_rad` from the last, the wrist clear of its singularity.
+/// (the search checked about `cfg.samples` of them), each a [`step`] from the last.
 ///
 /// # Errors
 /// [`Error::Failed`] (stage `hover`) naming the first sample that is not.
@@ -322,24 +358,23 @@ fn follow_every_sample(
     let side = q_start[4].signum();
     let mut q = *q_start;
     for s in &trajectory.samples {
-        let next = arm.ik_nearest(&(t_base_world * s.pose()), &q)?;
-        let why = match next {
-            None => "is out of the arm's reach".to_string(),
-            Some(n) if (n - q).amax() > cfg.max_joint_step_rad => format!(
-                "needs a joint to turn by {} rad from the sample before (sim.hover.max_joint_step_rad {})",
-                shown_to((n - q).amax(), 2),
-                shown(cfg.max_joint_step_rad)
-            ),
-            Some(n) if n[4] * side <= 0.0 => "takes the wrist through its singularity".to_string(),
-            Some(n) if !wrist_clear(&n, side, cfg) => format!(
-                "brings the wrist within {} rad of its singularity (sim.hover.min_wrist_angle_rad {})",
-                shown_to(n[4].abs(), 3),
-                shown(cfg.min_wrist_angle_rad)
-            ),
-            Some(n) => {
-                q = n;
+        let why = match step(arm, &(t_base_world * s.pose()), &q, side, cfg)? {
+            Ok(next) => {
+                q = next;
                 continue;
             }
+            Err(Stop::OutOfReach) => "is out of the arm's reach".to_string(),
+            Err(Stop::Jump(jump)) => format!(
+                "needs a joint to turn by {} rad from the sample before (sim.hover.max_joint_step_rad {})",
+                shown_to(jump, 2),
+                shown(cfg.max_joint_step_rad)
+            ),
+            Err(Stop::Through) => "takes the wrist through its singularity".to_string(),
+            Err(Stop::Near(q5)) => format!(
+                "brings the wrist within {} rad of its singularity (sim.hover.min_wrist_angle_rad {})",
+                shown_to(q5, 3),
+                shown(cfg.min_wrist_angle_rad)
+            ),
         };
         return Err(Error::failed(
             "hover",
@@ -426,12 +461,9 @@ fn follow(
             if r.reached < i || !r.can_beat(bar, n, cfg) {
                 break;
             }
-            let Some(next) = arm.ik_nearest(&in_base[i], &q)? else {
+            let Ok(next) = step(arm, &in_base[i], &q, side, cfg)? else {
                 break;
             };
-            if (next - q).amax() > cfg.max_joint_step_rad || !wrist_clear(&next, side, cfg) {
-                break;
-            }
             q = next;
             r.manipulability = r.manipulability.min(arm.manipulability_at(&in_base[i], &q)?);
             r.thrust = r.thrust.max(loads[i]);
