@@ -68,11 +68,16 @@ fn summary_in(out: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
 }
 
+/// The text of the committed pipeline `name` with its paths made absolute.
+fn pipeline_text(name: &str) -> String {
+    std::fs::read_to_string(repo(&format!("pipelines/{name}.toml")))
+        .unwrap()
+        .replace("../data", repo("data").to_str().unwrap())
+}
+
 /// The bottle-cleaning pipeline with extra TOML appended (paths made absolute).
 fn variant(dir: &Path, extra: &str) -> PathBuf {
-    let text = std::fs::read_to_string(repo("pipelines/bottle_cleaning.toml")).unwrap();
-    let data = repo("data");
-    let text = text.replace("../data", data.to_str().unwrap());
+    let text = pipeline_text("bottle_cleaning");
     let p = dir.join("variant.toml");
     std::fs::write(&p, format!("{text}\n{extra}\n")).unwrap();
     p
@@ -682,10 +687,9 @@ fn a_contact_operation_that_never_touches_is_a_failed_run() {
     );
 }
 
-/// `uvms sim` on the bottle run's trajectory with the configuration `config` into `out`, and
-/// `extra` arguments.
-fn sim_bottle_trajectory(config: &Path, out: &Path, extra: &[&str]) -> Output {
-    let trajectory = bottle_run().0.join("trajectory.csv");
+/// `uvms sim` on `trajectory` with the configuration `config` into `out`, and `extra`
+/// arguments.
+fn sim_on(trajectory: &Path, config: &Path, out: &Path, extra: &[&str]) -> Output {
     let args = [
         "sim",
         "--trajectory",
@@ -696,6 +700,11 @@ fn sim_bottle_trajectory(config: &Path, out: &Path, extra: &[&str]) -> Output {
         out.to_str().unwrap(),
     ];
     run(&[&args[..], extra].concat())
+}
+
+/// [`sim_on`] the bottle run's trajectory.
+fn sim_bottle_trajectory(config: &Path, out: &Path, extra: &[&str]) -> Output {
+    sim_on(&bottle_run().0.join("trajectory.csv"), config, out, extra)
 }
 
 /// `uvms sim` places a surface given in the scan frame by the configuration's `[frames]`: other
@@ -775,7 +784,7 @@ fn a_runs_config_reruns_its_simulation() {
 /// The committed pipeline `name` with its scene's mesh replaced by the run's scanned surface
 /// (`sim.surface_from = "scan"`), written as `scanned.toml` into `dir` (paths made absolute).
 fn on_the_scan(name: &str, dir: &Path) -> PathBuf {
-    let text = std::fs::read_to_string(repo(&format!("pipelines/{name}.toml"))).unwrap();
+    let text = pipeline_text(name);
     let (lines, replaced): (Vec<_>, Vec<_>) = text
         .lines()
         .map(|l| {
@@ -791,9 +800,7 @@ fn on_the_scan(name: &str, dir: &Path) -> PathBuf {
         1,
         "{name}: one sim.surface"
     );
-    let text = lines
-        .join("\n")
-        .replace("../data", repo("data").to_str().unwrap());
+    let text = lines.join("\n");
     let p = dir.join("scanned.toml");
     std::fs::write(&p, text).unwrap();
     p
@@ -833,20 +840,14 @@ fn soil_sampling_on_the_scanned_seabed() {
     );
     assert!(d.len() > 1000 && (2e-4..=3e-3).contains(&rms), "RMS {rms} m");
     // The written surface reruns the simulation (to its single-precision coordinates).
-    let again = dir.path().join("again");
-    let o = run(&[
-        "--json",
-        "--quiet",
-        "sim",
-        "--trajectory",
-        out.join("trajectory.csv").to_str().unwrap(),
-        "--config",
-        out.join("config.toml").to_str().unwrap(),
-        "--surface",
-        out.join("contact_surface.ply").to_str().unwrap(),
-        "--out",
-        again.to_str().unwrap(),
-    ]);
+    let (trajectory, config) = (out.join("trajectory.csv"), out.join("config.toml"));
+    let surface = out.join("contact_surface.ply");
+    let o = sim_on(
+        &trajectory,
+        &config,
+        &dir.path().join("again"),
+        &["--json", "--quiet", "--surface", surface.to_str().unwrap()],
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rerun: Value = serde_json::from_slice(&o.stdout).unwrap();
     for key in ["tool_deviation_max_m", "auv_deviation_max_m"] {
@@ -854,23 +855,13 @@ fn soil_sampling_on_the_scanned_seabed() {
         assert!((a - b).abs() <= 5e-5, "{key}: run {a}, rerun {b}");
     }
     // Without --surface, uvms sim has no run to take the surface from: it says what to give.
-    let err = refused(
-        &[
-            "sim",
-            "--trajectory",
-            out.join("trajectory.csv").to_str().unwrap(),
-            "--config",
-            out.join("config.toml").to_str().unwrap(),
-            "--out",
-            dir.path().join("refused").to_str().unwrap(),
-        ],
-        2,
-    );
+    let refused_dir = dir.path().join("refused");
+    let err = refused_output(&sim_on(&trajectory, &config, &refused_dir, &["--quiet"]), 2);
     assert!(
         err.contains("sim.surface_from") && err.contains("--surface OUT/contact_surface.ply"),
         "{err}"
     );
-    assert!(!dir.path().join("refused").exists());
+    assert!(!refused_dir.exists());
     // Both a file and the run's own surface: which one is meant is not clear.
     let both = std::fs::read_to_string(&p).unwrap().replace(
         "surface_from = \"scan\"",
@@ -971,9 +962,7 @@ fn the_scanned_surface_must_cover_the_path() {
 #[test]
 fn a_force_not_held_is_a_failed_run() {
     let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(repo("pipelines/bottle_cleaning.toml"))
-        .unwrap()
-        .replace("../data", repo("data").to_str().unwrap());
+    let text = pipeline_text("bottle_cleaning");
     assert!(text.contains("stiffness_n_m = 1e4"));
     let p = dir.path().join("soft.toml");
     std::fs::write(&p, text.replace("stiffness_n_m = 1e4", "stiffness_n_m = 1e3")).unwrap();
@@ -1021,9 +1010,7 @@ fn a_force_not_held_is_a_failed_run() {
 fn a_raster_on_the_bottle_with_a_symmetric_tool() {
     let raster = "[plan]\npattern = \"raster\"";
     let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(repo("pipelines/bottle_cleaning.toml"))
-        .unwrap()
-        .replace("../data", repo("data").to_str().unwrap());
+    let text = pipeline_text("bottle_cleaning");
     assert!(text.contains("[plan]\npattern = \"ring\""));
     let travel = dir.path().join("travel.toml");
     std::fs::write(&travel, text.replace("[plan]\npattern = \"ring\"", raster)).unwrap();
