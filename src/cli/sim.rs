@@ -299,7 +299,8 @@ pub fn sim_stage(
 /// describe no contact operation; or when, once touched, the tool lost the surface during the
 /// dwell or the contact phase (the vehicle or the drives could not hold the contact, no force
 /// loop): the operation was not carried out along the whole path. A phase that asks for no
-/// force along or above the surface may skim it untouched, and leave it.
+/// force along or above the surface (or so little inside it that the surface's spring there
+/// pushes less than `sim.dwell.tolerance_n`) may skim it untouched, and leave it.
 fn operation_failure(
     trajectory: &Trajectory,
     depth_m: Option<f64>,
@@ -315,7 +316,10 @@ fn operation_failure(
         .phase(Phase::Contact)
         .map(|s| s.force)
         .fold(0.0, f64::max);
-    if force <= 0.0 && depth <= 0.0 {
+    // A phase asking for no force whose points lie no deeper than the depth whose spring
+    // force is within the force tolerance is a skim: the planned surface (a scan) may lie a
+    // fraction of a millimetre off the true one.
+    if force <= 0.0 && depth <= cfg.dwell.tolerance_n / cfg.contact.stiffness_n_m {
         return None;
     }
     let asks = if force > 0.0 {
