@@ -1003,6 +1003,44 @@ fn the_scanned_surface_must_cover_the_path() {
     assert!(!lined.exists());
 }
 
+/// A stiff surface the approach already presses on (k = 1e5 N/m, ten times the seed's; the
+/// fouled bottle stands out of its scan, and bottle seed 1's tool touches it 0.06 s before the
+/// dwell, 11 N at its start): the force loop takes over from the force the tool presses with,
+/// the set-point's ramp held there until it catches up. Ramping from zero it asked for 0.6 N,
+/// pulled the tool back and lost the surface for 0.02 s (a failed run).
+#[test]
+fn a_stiff_surface_pressed_in_the_approach_keeps_the_contact() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = pipeline_text("bottle_cleaning");
+    assert!(text.contains("stiffness_n_m = 1e4"));
+    let p = dir.path().join("stiff.toml");
+    std::fs::write(&p, text.replace("stiffness_n_m = 1e4", "stiffness_n_m = 1e5")).unwrap();
+    let out = dir.path().join("out");
+    let s = run_pipeline(&p, &out);
+    let sim = &s["sim"];
+    assert!(
+        sim["failure"].is_null() && sim["contact_lost_s"].as_f64() == Some(0.0),
+        "{sim}"
+    );
+    assert!(
+        (sim["force_settled_mean_n"].as_f64().unwrap() - 60.0).abs() <= 1.0,
+        "{sim}"
+    );
+    let series = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    let mut lines = series.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (phase, f_set, f_id) = (col("phase"), col("f_set_n"), col("fk_id_n"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let first_dwell = rows.iter().position(|r| r[phase] == "dwell").unwrap();
+    let pressed: f64 = rows[first_dwell - 1][f_id].parse().unwrap();
+    let asked: f64 = rows[first_dwell][f_set].parse().unwrap();
+    assert!(
+        pressed > 5.0 && asked >= 0.8 * pressed,
+        "pressed {pressed} N, asked {asked} N"
+    );
+}
+
 /// A force asked for and not held is a failed contact operation: on a surface ten times softer
 /// than planned for (k = 1e3 N/m) the force loop's offset reaches its 5 cm limit at 50 N, and
 /// the dwell waits its 10 s for a force that never settles (tried: settled at 49.3 N, exit 0

@@ -588,6 +588,7 @@ pub fn simulate(
     let mut rate_from: Option<Isometry3<f64>> = None;
     let mut qd_set = JointVector::zeros();
     let mut m_ez_true_prev = JointVector::zeros();
+    let (mut ramp_from, mut ramp_caught_up): (Option<f64>, bool) = (None, false);
     let (mut dwell_wait, mut settled_for) = (0.0, 0.0);
     let (mut unreachable, mut saturated) = (0usize, 0usize);
     let wall = std::time::Instant::now();
@@ -607,7 +608,7 @@ pub fn simulate(
         let current = vc.current(&ctrl.vehicle, &meas.attitude);
         let base = BaseMotion::on_vehicle(arm, &meas.attitude, &nu_est, &Vector6::zeros(), g, &current);
         // The desired tool state.
-        let s = trajectory
+        let mut s = trajectory
             .sample_at(clock)
             .ok_or_else(|| Error::input("trajectory", "has no samples"))?;
         // ICU (the commanded accelerations are its fallback, `[sim.icu] acceleration`), zeroed
@@ -623,6 +624,18 @@ pub fn simulate(
         // Force control where the trajectory asks for a force; a sampler dragged at a set depth
         // (force 0) is position-controlled.
         let pressing = matches!(s.phase, Phase::Dwell | Phase::Contact) && s.force > 0.0;
+        // A bumpless start: where the tool already presses when the force loop takes over (the
+        // true surface stands out of the planned one, and the approach touched it), the
+        // set-point rises from that force, held until the trajectory's ramp reaches it (or the
+        // dwell ends). Ramping from zero, the loop pulled the tool back off the surface.
+        if pressing && !ramp_caught_up {
+            let from = *ramp_from.get_or_insert_with(|| s.k.dot(&f_imp_est).clamp(0.0, force_setpoint));
+            if s.force >= from || s.phase == Phase::Contact {
+                ramp_caught_up = true;
+            } else {
+                s.force = from;
+            }
+        }
         let offset = if !cfg.scenario.force_loop {
             0.0
         } else if pressing {
