@@ -1003,6 +1003,20 @@ fn the_scanned_surface_must_cover_the_path() {
     assert!(!lined.exists());
 }
 
+/// The bottle pipeline with the surface's stiffness `k` (N/m, as TOML writes it) for the
+/// seed's 1e4, written into `dir`.
+fn bottle_on_stiffness(dir: &Path, k: &str) -> PathBuf {
+    let text = pipeline_text("bottle_cleaning");
+    assert!(text.contains("stiffness_n_m = 1e4"));
+    let p = dir.join(format!("k{k}.toml"));
+    std::fs::write(
+        &p,
+        text.replace("stiffness_n_m = 1e4", &format!("stiffness_n_m = {k}")),
+    )
+    .unwrap();
+    p
+}
+
 /// A stiff surface the approach already presses on (k = 1e5 N/m, ten times the seed's; the
 /// fouled bottle stands out of its scan, and bottle seed 1's tool touches it 0.06 s before the
 /// dwell, 11 N at its start): the force loop takes over from the force the tool presses with,
@@ -1011,10 +1025,7 @@ fn the_scanned_surface_must_cover_the_path() {
 #[test]
 fn a_stiff_surface_pressed_in_the_approach_keeps_the_contact() {
     let dir = tempfile::tempdir().unwrap();
-    let text = pipeline_text("bottle_cleaning");
-    assert!(text.contains("stiffness_n_m = 1e4"));
-    let p = dir.path().join("stiff.toml");
-    std::fs::write(&p, text.replace("stiffness_n_m = 1e4", "stiffness_n_m = 1e5")).unwrap();
+    let p = bottle_on_stiffness(dir.path(), "1e5");
     let out = dir.path().join("out");
     let s = run_pipeline(&p, &out);
     let sim = &s["sim"];
@@ -1049,10 +1060,7 @@ fn a_stiff_surface_pressed_in_the_approach_keeps_the_contact() {
 #[test]
 fn a_force_not_held_is_a_failed_run() {
     let dir = tempfile::tempdir().unwrap();
-    let text = pipeline_text("bottle_cleaning");
-    assert!(text.contains("stiffness_n_m = 1e4"));
-    let p = dir.path().join("soft.toml");
-    std::fs::write(&p, text.replace("stiffness_n_m = 1e4", "stiffness_n_m = 1e3")).unwrap();
+    let p = bottle_on_stiffness(dir.path(), "1e3");
     let s = run_pipeline(&p, &dir.path().join("soft"));
     let sim = &s["sim"];
     let failure = sim["failure"].as_str().unwrap_or_default();

@@ -208,7 +208,7 @@ impl Footprint {
             .map(|t| {
                 let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
                 let longest = (b - a).norm().max((c - b).norm()).max((a - c).norm());
-                // (At most the cap's square root: a larger count is refused below anyway.)
+                // (Clamped where the count would pass the cap anyway, to keep it in range.)
                 ((2.0 * longest / radius).ceil() as usize).clamp(1, 1 << 12)
             })
             .collect();
@@ -370,17 +370,17 @@ impl Contact {
     /// the surface), and the normal the contact force is along.
     fn depth_and_normal(&mut self, tip: &Point3<f64>) -> (f64, Vector3<f64>) {
         let proj = self.surface.project_tracked(tip, &mut self.near);
-        // Behind the closest point's triangle, and not beyond an open mesh's rim (whose closest
-        // point is on the rim, off to the side: however far behind the rim triangle's plane,
-        // no material; counted inside, metres of penetration, a runaway at once).
-        // The footprint's surface too ends at the rim; where no sample is near (deep inside a
-        // thin object), the mesh's own.
+        // The footprint's surface ends at the mesh's rim too; where no sample lies within its
+        // radius (a tip deeper than that), the mesh's own surface answers.
         if let Some(fp) = &self.footprint
             && !self.surface.on_rim(&proj)
             && let Some((f, n)) = fp.at(tip)
         {
             return (-f, n);
         }
+        // Behind the closest point's triangle, and not beyond an open mesh's rim (whose closest
+        // point is on the rim, off to the side: however far behind the rim triangle's plane,
+        // no material; counted inside, metres of penetration, a runaway at once).
         let inside = (proj.point - tip).dot(&proj.normal) > 0.0 && !self.surface.on_rim(&proj);
         let immersion = match self.cfg.material {
             Material::Soil if inside => self.immersion(tip),
