@@ -974,6 +974,31 @@ fn a_ring_around_a_real_milk_carton_on_its_scanned_surface() {
     );
 }
 
+/// A footprint too small for the surface mesh's triangles (each cut until its pieces are no
+/// longer than half the radius: 1 µm on the bottle's scene would take trillions of samples)
+/// is bad input found before any stage writes; so is a footprint on soil.
+#[test]
+fn a_footprint_the_surface_cannot_take_is_refused_up_front() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, radius, says) in [
+        ("bottle_cleaning", "1e-6", "samples of the surface mesh"),
+        ("soil_sampling", "0.01", "applies to a rigid surface"),
+    ] {
+        let text = pipeline_text(name);
+        assert!(text.contains("[sim.contact]\n"));
+        let p = dir.path().join(format!("{name}.toml"));
+        let footprint = format!("[sim.contact]\nfootprint_radius_m = {radius}\n");
+        std::fs::write(&p, text.replace("[sim.contact]\n", &footprint)).unwrap();
+        let out = dir.path().join(name);
+        let err = refused(&["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()], 2);
+        assert!(
+            err.contains("sim.contact.footprint_radius_m") && err.contains(says),
+            "{err}"
+        );
+        assert!(!out.exists());
+    }
+}
+
 /// The bottle's ring crosses holes of its scan (stereo shadows), where the plan put the points
 /// on the aligned reference: on the scanned surface alone the tool would fall into them (tried:
 /// the tool off the bottle for 10 s, 554 N on a hole's edge). A failed run before the

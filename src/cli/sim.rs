@@ -196,6 +196,7 @@ pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs
     }
     let file = surface_file(cfg)?;
     let mesh = read_mesh(file)?;
+    crate::sim::contact::check_footprint(&cfg.contact, &mesh).map_err(|e| Error::input(file.display(), e))?;
     inputs.with_surface(
         mesh,
         cfg.surface_frame,

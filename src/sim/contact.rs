@@ -196,36 +196,60 @@ struct Footprint {
 /// The most samples a footprint takes of a mesh: some 300 MB.
 const FOOTPRINT_MAX_SAMPLES: usize = 5_000_000;
 
+/// How many pieces a side each triangle of `mesh` is cut into for a footprint of `radius`:
+/// the least that makes their edges no longer than half the radius.
+///
+/// # Errors
+/// [`Error::Input`] naming `sim.contact.footprint_radius_m` when the pieces number more than
+/// [`FOOTPRINT_MAX_SAMPLES`].
+fn footprint_cuts(mesh: &TriangleMesh, radius: f64) -> Result<Vec<usize>> {
+    let cuts: Vec<usize> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+            let longest = (b - a).norm().max((c - b).norm()).max((a - c).norm());
+            // (Clamped where the count would pass the cap anyway, to keep it in range.)
+            ((2.0 * longest / radius).ceil() as usize).clamp(1, 1 << 12)
+        })
+        .collect();
+    let count: usize = cuts.iter().map(|m| m * m).sum();
+    require(
+        count <= FOOTPRINT_MAX_SAMPLES,
+        "sim.contact.footprint_radius_m",
+        format!(
+            "{radius} m would need at least {count} samples of the surface mesh (at most \
+             {FOOTPRINT_MAX_SAMPLES}): give a larger radius or a mesh of the part the tool touches"
+        ),
+    )?;
+    Ok(cuts)
+}
+
+/// Checks that a footprint of `cfg` can sample `mesh` (see [`Contact::new`]), before a run
+/// writes anything.
+///
+/// # Errors
+/// [`Error::Input`] naming `sim.contact.footprint_radius_m` when it would take too many
+/// samples.
+pub fn check_footprint(cfg: &ContactConfig, mesh: &TriangleMesh) -> Result<()> {
+    if cfg.footprint_radius_m > 0.0 {
+        footprint_cuts(mesh, cfg.footprint_radius_m)?;
+    }
+    Ok(())
+}
+
 impl Footprint {
-    /// Samples the mesh: each triangle is cut into `m²` equal triangles (`m` the least that
-    /// makes their edges no longer than half the radius), each a sample at its centroid with
-    /// its area and the mesh's shaded normal there (the vertex normals blended), so that a
-    /// footprint on the surface holds several samples wherever it stands.
+    /// Samples the mesh: each triangle is cut into `m²` equal triangles ([`footprint_cuts`]),
+    /// each a sample at its centroid with its area and the mesh's shaded normal there (the
+    /// vertex normals blended), so that a footprint on the surface holds several samples
+    /// wherever it stands.
     ///
     /// # Errors
-    /// [`Error::Input`] naming `sim.contact.footprint_radius_m` when that takes more than
-    /// [`FOOTPRINT_MAX_SAMPLES`].
+    /// As [`footprint_cuts`].
     fn new(mesh: &TriangleMesh, radius: f64) -> Result<Self> {
         let vertex_normals = mesh.vertex_normals();
-        let cuts: Vec<usize> = mesh
-            .triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
-                let longest = (b - a).norm().max((c - b).norm()).max((a - c).norm());
-                // (Clamped where the count would pass the cap anyway, to keep it in range.)
-                ((2.0 * longest / radius).ceil() as usize).clamp(1, 1 << 12)
-            })
-            .collect();
+        let cuts = footprint_cuts(mesh, radius)?;
         let count: usize = cuts.iter().map(|m| m * m).sum();
-        require(
-            count <= FOOTPRINT_MAX_SAMPLES,
-            "sim.contact.footprint_radius_m",
-            format!(
-                "{radius} m would need {count} samples of the surface mesh (at most \
-                 {FOOTPRINT_MAX_SAMPLES}): give a larger radius or a mesh of the part the tool touches"
-            ),
-        )?;
         let (mut points, mut normals, mut areas) = (
             Vec::with_capacity(count),
             Vec::with_capacity(count),
