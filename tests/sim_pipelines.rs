@@ -953,7 +953,7 @@ fn a_ring_around_a_real_milk_carton_on_its_scanned_surface() {
     assert_eq!(touched.vertices, scanned.vertices);
 
     // A tool with a 15 mm footprint sees the surface at its own size: the point contact's
-    // steps are gone (identification peaks 7.4-8.1 N·m with a point, 0.46-0.69 with the
+    // steps are gone (identification peaks 7.3-8.1 N·m with a point, 0.46-0.68 with the
     // footprint over seeds 1-5; force peaks 70-89 N against 63-68 N).
     let text = std::fs::read_to_string(&p).unwrap() + "\n[sim.contact]\nfootprint_radius_m = 0.015\n";
     std::fs::write(&p, text).unwrap();

@@ -207,7 +207,7 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
                 "wrote        {CONTACT_SURFACE} (the {name}, the surface the tool touches)"
             );
             let origin = format!("the run's {name}");
-            sim_inputs.with_surface(mesh, SurfaceFrame::Scan, &origin, "sim.surface_from")?
+            sim_inputs.with_surface(mesh, &p.sim, SurfaceFrame::Scan, &origin, "sim.surface_from")?
         }
     };
     let stage = sim_stage(&planned.trajectory, &sim_inputs, &p.sim, &out, ctx)?;

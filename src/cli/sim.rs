@@ -196,9 +196,9 @@ pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs
     }
     let file = surface_file(cfg)?;
     let mesh = read_mesh(file)?;
-    crate::sim::contact::check_footprint(&cfg.contact, &mesh).map_err(|e| Error::input(file.display(), e))?;
     inputs.with_surface(
         mesh,
+        cfg,
         cfg.surface_frame,
         &file.display().to_string(),
         "sim.surface",
@@ -206,14 +206,15 @@ pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs
 }
 
 impl SimInputs {
-    /// The inputs with `mesh`, given in `frame`, as the true surface; `origin` names it in an
-    /// error, `key` the setting that chose it.
+    /// The inputs with `mesh`, given in `frame`, as the true surface of a run configured by
+    /// `cfg`; `origin` names it in an error, `key` the setting that chose it.
     ///
     /// # Errors
-    /// [`Error::Input`] if the mesh has no triangles.
+    /// [`Error::Input`] if the mesh has no triangles or the tool's footprint cannot sample it.
     pub fn with_surface(
         mut self,
         mesh: TriangleMesh,
+        cfg: &SimConfig,
         frame: SurfaceFrame,
         origin: &str,
         key: &str,
@@ -224,6 +225,7 @@ impl SimInputs {
                 format!("has no triangles: the true surface the tool touches is a triangle mesh ({key})"),
             ));
         }
+        crate::sim::contact::check_footprint(&cfg.contact, &mesh).map_err(|e| Error::input(origin, e))?;
         self.mesh = Some(match frame {
             SurfaceFrame::Scan => mesh.transformed(&self.t_world_scan),
             SurfaceFrame::World => mesh,
@@ -271,9 +273,20 @@ pub fn sim_stage(
     bar.finish_and_clear();
     let run = result?;
     out.write_with("timeseries.csv", |w| write_csv(&run.rows, w))?;
-    for (name, fig) in figures(&run.rows, &cfg.scenario) {
-        out.write_bytes(&format!("{name}.svg"), to_svg(&fig, 1200, 900).as_bytes())?;
-        out.write_bytes(&format!("{name}.png"), &to_png(&fig, 1200, 900))?;
+    // The figures are drawn side by side (rasterising the PNGs is most of the stage's time
+    // after the loop), and written in order.
+    let figures = figures(&run.rows, &cfg.scenario);
+    let drawn: Vec<_> = std::thread::scope(|scope| {
+        let drawing: Vec<_> = figures
+            .iter()
+            .map(|(_, fig)| scope.spawn(|| (to_svg(fig, 1200, 900), to_png(fig, 1200, 900))))
+            .collect();
+        drawing.into_iter().map(|d| d.join()).collect()
+    });
+    for ((name, _), pictures) in figures.iter().zip(drawn) {
+        let (svg, png) = pictures.map_err(|_| Error::failed("plot", format!("drawing {name} failed")))?;
+        out.write_bytes(&format!("{name}.svg"), svg.as_bytes())?;
+        out.write_bytes(&format!("{name}.png"), &png)?;
     }
     let mut summary = serde_json::to_value(&run.summary).map_err(|e| Error::failed("summary", e))?;
     let failure = operation_failure(trajectory, run.contact_depth_m, &run.summary, cfg);

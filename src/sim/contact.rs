@@ -47,7 +47,11 @@
 //! edge alike (a least-squares plane's normal instead, the covariance's smallest axis, flips
 //! between two faces within a period where its two smallest spreads cross: PCL's milk carton
 //! at `h` = 1 cm, identification peaks of 8–9 N·m); a plane is reproduced exactly, a cylinder
-//! of radius `R` within its curvature over the patch (the test's bound).
+//! of radius `R` within its curvature over the patch (the test's bound). Samples facing away
+//! from the patch's mean normal count less from 60° off it and not at all from 120° (a
+//! smoothstep of the cosine): a patch that reaches the far face of a plate thinner than it
+//! sees the near face only. The patch is the surface within `h` of the tip, a disc of radius
+//! `√(h² − δ²)` at a penetration `δ`; deeper than `h` the mesh's closest point answers.
 
 use crate::config::{non_negative, positive, require};
 use crate::error::Result;
@@ -191,6 +195,9 @@ struct Footprint {
     /// walk down the tree each period; empty until the first query.
     centre: Point3<f64>,
     near: Vec<u32>,
+    /// The samples within the radius of the last query, with their weights (kept for its
+    /// allocation).
+    weighed: Vec<(u32, f64)>,
 }
 
 /// The most samples a footprint takes of a mesh: some 300 MB.
@@ -291,6 +298,7 @@ impl Footprint {
             areas,
             centre: Point3::new(f64::INFINITY, 0.0, 0.0),
             near: Vec::new(),
+            weighed: Vec::new(),
         })
     }
 
@@ -307,21 +315,31 @@ impl Footprint {
             self.index
                 .within_visit(x, self.radius + reach, |nb| near.push(nb.index as u32));
         }
-        // Sums over the samples' offsets from `x` (at most the radius: no cancellation).
-        let (mut sw, mut sd, mut sn) = (0.0, Vector3::zeros(), Vector3::zeros());
+        // The samples within the radius, their weights, and their mean normal.
         let h2 = self.radius * self.radius;
+        self.weighed.clear();
+        let mut mean = Vector3::zeros();
         for &i in &self.near {
-            let i = i as usize;
-            let d = self.points[i] - x;
-            let d2 = d.norm_squared();
-            if d2 >= h2 {
-                continue;
+            let d2 = (self.points[i as usize] - x).norm_squared();
+            if d2 < h2 {
+                let t = d2.sqrt() / self.radius;
+                let w = self.areas[i as usize] * (1.0 - t).powi(4) * (4.0 * t + 1.0);
+                mean += w * self.normals[i as usize];
+                self.weighed.push((i, w));
             }
-            let t = d2.sqrt() / self.radius;
-            let w = self.areas[i] * (1.0 - t).powi(4) * (4.0 * t + 1.0);
+        }
+        let facing = mean.try_normalize(1e-12)?;
+        // Sums over the samples' offsets from `x` (at most the radius: no cancellation), of
+        // the samples facing the mean's side: those turned from it by more than 60° count
+        // less, by more than 120° (the far side of a thin object) not at all, smoothly.
+        let (mut sw, mut sd, mut sn) = (0.0, Vector3::zeros(), Vector3::zeros());
+        for &(i, w) in &self.weighed {
+            let n = self.normals[i as usize];
+            let t = (n.dot(&facing) + 0.5).clamp(0.0, 1.0);
+            let w = w * t * t * (3.0 - 2.0 * t);
             sw += w;
-            sd += w * d;
-            sn += w * self.normals[i];
+            sd += w * (self.points[i as usize] - x);
+            sn += w * n;
         }
         if sw <= 0.0 {
             return None;
@@ -868,6 +886,45 @@ mod tests {
         assert!(turn < 0.2, "{turn}°");
         assert!(tilt.to_radians() < 2.0 * 0.001 / 0.015, "{tilt}°");
         assert!(depth_error < 0.5 * 0.001, "{depth_error} m");
+    }
+
+    /// A plate 4 mm thick, both faces meshed: a footprint wider than the plate reaches the far
+    /// face too, whose samples face the other way and do not count (the near face's plane
+    /// only); counted, their centroid halfway between the faces read every tip inside as
+    /// outside, and the plate pushed nothing.
+    #[test]
+    fn a_footprint_in_a_thin_plate_sees_its_near_face() {
+        let (n, step, thickness) = (51_u32, 0.002, 0.004);
+        let grid = |z: f64| {
+            (0..n * n).map(move |k| {
+                let (i, j) = (f64::from(k % n), f64::from(k / n));
+                Point3::new((i - 25.0) * step, (j - 25.0) * step, z)
+            })
+        };
+        let vertices = grid(0.0).chain(grid(thickness)).collect();
+        let triangles = (0..n - 1)
+            .flat_map(|j| (0..n - 1).map(move |i| (i, j)))
+            .flat_map(|(i, j)| {
+                let (a, b, c, d) = (j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i);
+                let o = n * n;
+                // The top face's normal up (−z), the bottom's down.
+                [[a, c, b], [a, d, c], [a + o, b + o, c + o], [a + o, c + o, d + o]]
+            })
+            .collect();
+        let plate = TriangleMesh { vertices, triangles };
+        let mut c = Contact::new(&plate, &with_footprint(0.015)).unwrap();
+        for depth in [0.0005, 0.001, 0.0019] {
+            let s = c.evaluate(&Point3::new(0.001, 0.003, depth), &Vector3::zeros());
+            assert!((s.depth - depth).abs() < 1e-12, "{depth}: {}", s.depth);
+            assert!((s.normal + Vector3::z()).norm() < 1e-12, "{depth}: {}", s.normal);
+            let from_below = c.evaluate(&Point3::new(0.001, 0.003, thickness - depth), &Vector3::zeros());
+            assert!(
+                (from_below.depth - depth).abs() < 1e-12,
+                "{depth}: {}",
+                from_below.depth
+            );
+            assert!((from_below.normal - Vector3::z()).norm() < 1e-12);
+        }
     }
 
     #[test]

@@ -589,6 +589,11 @@ pub fn simulate(
     let mut qd_set = JointVector::zeros();
     let mut m_ez_true_prev = JointVector::zeros();
     let (mut ramp_from, mut ramp_caught_up): (Option<f64>, bool) = (None, false);
+    // The force the dwell's ramp rises to (the first contact point's).
+    let ramp_to = trajectory
+        .phase(Phase::Contact)
+        .next()
+        .map_or(force_setpoint, |s| s.force);
     let (mut dwell_wait, mut settled_for) = (0.0, 0.0);
     let (mut unreachable, mut saturated) = (0usize, 0usize);
     let wall = std::time::Instant::now();
@@ -629,7 +634,7 @@ pub fn simulate(
         // set-point rises from that force, held until the trajectory's ramp reaches it (or the
         // dwell ends). Ramping from zero, the loop pulled the tool back off the surface.
         if pressing && !ramp_caught_up {
-            let from = *ramp_from.get_or_insert_with(|| s.k.dot(&f_imp_est).clamp(0.0, force_setpoint));
+            let from = *ramp_from.get_or_insert_with(|| s.k.dot(&f_imp_est).clamp(0.0, ramp_to));
             if s.force >= from || s.phase == Phase::Contact {
                 ramp_caught_up = true;
             } else {
