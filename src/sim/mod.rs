@@ -634,7 +634,7 @@ pub fn simulate(
         // set-point rises from that force, held until the trajectory's ramp reaches it (or the
         // dwell ends). Ramping from zero, the loop pulled the tool back off the surface.
         if pressing && !ramp_caught_up {
-            let from = *ramp_from.get_or_insert_with(|| s.k.dot(&f_imp_est).clamp(0.0, ramp_to));
+            let from = *ramp_from.get_or_insert_with(|| s.k.dot(&f_imp_est).min(ramp_to).max(0.0));
             if s.force >= from || s.phase == Phase::Contact {
                 ramp_caught_up = true;
             } else {
