@@ -1,7 +1,7 @@
-//! How good is an alignment? The seed's method [59] without ground truth, and the usual pose
+//! How good is an alignment? The seed's method \[59\] without ground truth, and the usual pose
 //! metrics with it.
 //!
-//! **[59]** (Konoplin & Pyatavin 2020, cited by the seed as its accuracy check): a family of test
+//! **\[59\]** (Konoplin & Pyatavin 2020, cited by the seed as its accuracy check): a family of test
 //! trajectories is projected onto both triangulated surfaces — the scanned object and the aligned
 //! reference — and the distances between corresponding points are summarised by their RMS and
 //! maximum. Here the trajectories are `lines` parallel straight lines across the object (along its
@@ -26,7 +26,7 @@ use nalgebra::{Matrix3, Point3, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// Configuration of the [59] accuracy estimate.
+/// Configuration of the \[59\] accuracy estimate.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct AccuracyConfig {
@@ -207,7 +207,7 @@ pub fn deviation(first: &[Option<f64>], second: &[Option<f64>], mask: Option<&[b
     }
 }
 
-/// The seed's [59] estimate: test trajectories over the scanned object `object` (seen from
+/// The seed's \[59\] estimate: test trajectories over the scanned object `object` (seen from
 /// `camera`) projected onto the scanned surface and the aligned reference surface.
 ///
 /// # Errors

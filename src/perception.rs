@@ -7,7 +7,7 @@
 //! (the cluster that matches the reference's size and shape) → `register` (global initial guess
 //! and hidden-point removal, alongside the object's normals; ICP) → `surface` (2.5-D Delaunay of
 //! the object; no triangle across a pixel that saw another point of the cleaned scan) →
-//! `accuracy` (the seed's [59] test trajectories; pose errors and ADD-S with ground truth).
+//! `accuracy` (the seed's \[59\] test trajectories; pose errors and ADD-S with ground truth).
 //!
 //! Frames: everything is in the scan frame `S` (camera at `view.camera_m`, the origin for a
 //! stereo scan) except the reference model, which is in its own frame; `t_scan_reference` maps the
@@ -157,7 +157,7 @@ pub struct PerceptionConfig {
     pub register: RegisterConfig,
     /// Triangulation of the scanned object.
     pub surface: SurfaceConfig,
-    /// The [59] accuracy estimate.
+    /// The \[59\] accuracy estimate.
     pub accuracy: AccuracyConfig,
 }
 
@@ -416,7 +416,7 @@ pub struct CheckResult {
     /// The aligned reference surface (scan frame): the model's mesh moved by `t_scan_reference`,
     /// or for a point-cloud model the triangulation of its visible points.
     pub reference_surface: TriangleMesh,
-    /// The seed's [59] estimate: test trajectories on both surfaces.
+    /// The seed's \[59\] estimate: test trajectories on both surfaces.
     pub accuracy: Deviation,
     /// Errors against the ground truth, when given.
     pub truth: Option<TruthErrors>,

@@ -240,14 +240,14 @@ impl Surface {
     /// mesh; `near` is rebuilt around `p` when `p` has left the part of space where that is
     /// exact. The same projection as [`Surface::project`], which is the first of the equally
     /// near triangles (the point closest to a shared edge or vertex) in its tree's order:
-    /// [`Surface::first_in_tree_order`] settles those.
+    /// `Surface::first_in_tree_order` settles those.
     ///
     /// Why the list suffices: it holds every triangle within `radius` of its centre `c`, whose
     /// closest triangle is `d_c` away. From `p` at `m = |p − c|` the closest triangle is at most
     /// `d_c + m` away, so at most `d_c + 2m` from `c`: listed while `d_c + 2m ≤ radius`. The
     /// list is sorted by the distance `d_t` from `c`, and a triangle is at least `d_t − m` from
     /// `p`: the scan stops at the first one that cannot be as near as the best so far. The
-    /// round-off of the distances (~1e-16 of the coordinates) is covered by [`NEAR_SLACK_M`].
+    /// round-off of the distances (~1e-16 of the coordinates) is covered by `NEAR_SLACK_M`.
     pub fn project_tracked(&self, p: &Point3<f64>, near: &mut Neighbourhood) -> Projection {
         let q = g(p);
         let mut m = (q - near.centre).length();

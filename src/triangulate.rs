@@ -13,7 +13,7 @@
 //! surface point, so where a pixel between the surface's points saw something else, the surface
 //! there is not the chord across it. (On the flank of a bottle turning away from the camera, the
 //! samples are farther apart than the clustering tolerance and split off; the chord over them lay
-//! 4.5 mm in front of the true surface, 50 mm along a test ray of the [59] accuracy check.)
+//! 4.5 mm in front of the true surface, 50 mm along a test ray of the \[59\] accuracy check.)
 //! Optionally each point is first moved onto the least-squares plane of its `smoothing_neighbours`
 //! nearest neighbours, which takes out most of the sensor's noise (one step of a
 //! moving-least-squares projection, Alexa et al. 2003). Triangles are wound so that their normals

@@ -1,6 +1,6 @@
 //! `uvms check SCAN.ply --reference MODEL.ply [--ground-truth TRUTH.json] [--up X,Y,Z]
 //! [--init auto|identity|FILE.json] [--whole-scan] [--config F] [--out DIR]`: aligns the
-//! reference model to the scanned object and says how good the alignment is — the seed's [59]
+//! reference model to the scanned object and says how good the alignment is — the seed's \[59\]
 //! estimate always, pose errors and ADD-S when the truth is known.
 
 use super::segment::{load_reference, parse_vector3, segmentation_summary, segmentation_text};

@@ -235,7 +235,7 @@ impl SimInputs {
 }
 
 /// What [`sim_stage`] gives: the summary (as JSON), the readable account, and why the contact
-/// operation failed although the products are written (see [`operation_failure`]).
+/// operation failed although the products are written (see `operation_failure`).
 pub struct SimStage {
     /// The simulation's summary.
     pub summary: serde_json::Value,

@@ -126,7 +126,7 @@ impl ContactConfig {
     /// Checks the values.
     ///
     /// # Errors
-    /// [`Error::Input`] naming the first bad field.
+    /// [`Error::Input`](crate::error::Error::Input) naming the first bad field.
     pub fn validate(&self) -> Result<()> {
         positive("sim.contact.stiffness_n_m", self.stiffness_n_m)?;
         positive("sim.contact.velocity_epsilon_m_s", self.velocity_epsilon_m_s)?;
@@ -207,8 +207,8 @@ const FOOTPRINT_MAX_SAMPLES: usize = 5_000_000;
 /// the least that makes their edges no longer than half the radius.
 ///
 /// # Errors
-/// [`Error::Input`] naming `sim.contact.footprint_radius_m` when the pieces number more than
-/// [`FOOTPRINT_MAX_SAMPLES`].
+/// [`Error::Input`](crate::error::Error::Input) naming `sim.contact.footprint_radius_m`
+/// when the pieces number more than [`FOOTPRINT_MAX_SAMPLES`].
 fn footprint_cuts(mesh: &TriangleMesh, radius: f64) -> Result<Vec<usize>> {
     let cuts: Vec<usize> = mesh
         .triangles
@@ -236,8 +236,8 @@ fn footprint_cuts(mesh: &TriangleMesh, radius: f64) -> Result<Vec<usize>> {
 /// writes anything.
 ///
 /// # Errors
-/// [`Error::Input`] naming `sim.contact.footprint_radius_m` when it would take too many
-/// samples.
+/// [`Error::Input`](crate::error::Error::Input) naming `sim.contact.footprint_radius_m`
+/// when it would take too many samples.
 pub fn check_footprint(cfg: &ContactConfig, mesh: &TriangleMesh) -> Result<()> {
     if cfg.footprint_radius_m > 0.0 {
         footprint_cuts(mesh, cfg.footprint_radius_m)?;
@@ -360,8 +360,8 @@ impl Contact {
     /// material).
     ///
     /// # Errors
-    /// [`Error::Input`] for a bad configuration, an empty mesh, or a footprint too small for
-    /// the mesh's size.
+    /// [`Error::Input`](crate::error::Error::Input) for a bad configuration, an empty mesh,
+    /// or a footprint too small for the mesh's size.
     pub fn new(mesh: &TriangleMesh, cfg: &ContactConfig) -> Result<Self> {
         cfg.validate()?;
         let surface = Surface::new(mesh)?;

@@ -48,7 +48,7 @@ impl FcuConfig {
     /// Checks the values.
     ///
     /// # Errors
-    /// [`Error::Input`] naming the first bad field.
+    /// [`Error::Input`](crate::error::Error::Input) naming the first bad field.
     pub fn validate(&self) -> Result<()> {
         non_negative("sim.force.kp", self.kp)?;
         non_negative("sim.force.ki", self.ki)?;

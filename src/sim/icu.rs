@@ -370,7 +370,7 @@ impl IcuConfig {
     /// Checks the values.
     ///
     /// # Errors
-    /// [`Error::Input`] naming the first bad field.
+    /// [`Error::Input`](crate::error::Error::Input) naming the first bad field.
     pub fn validate(&self) -> Result<()> {
         non_negative("sim.icu.singular_angle_rad", self.singular_angle_rad)?;
         non_negative("sim.icu.tare_s", self.tare_s)?;

@@ -56,7 +56,7 @@ impl JointControlConfig {
     /// Checks the values.
     ///
     /// # Errors
-    /// [`Error::Input`] naming the first bad field.
+    /// [`Error::Input`](crate::error::Error::Input) naming the first bad field.
     pub fn validate(&self) -> Result<()> {
         positive("sim.joints.bandwidth_rad_s", self.bandwidth_rad_s)?;
         positive("sim.joints.damping_ratio", self.damping_ratio)?;

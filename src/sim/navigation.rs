@@ -90,7 +90,7 @@ impl NavigationConfig {
     /// Checks the values.
     ///
     /// # Errors
-    /// [`Error::Input`] naming the first bad field.
+    /// [`Error::Input`](crate::error::Error::Input) naming the first bad field.
     pub fn validate(&self) -> Result<()> {
         non_negative("sim.navigation.attitude_filter_s", self.attitude_filter_s)?;
         non_negative("sim.navigation.levelling_s", self.levelling_s)?;

@@ -74,7 +74,7 @@ impl SensorConfig {
     /// Checks the values.
     ///
     /// # Errors
-    /// [`Error::Input`] naming the first bad field.
+    /// [`Error::Input`](crate::error::Error::Input) naming the first bad field.
     pub fn validate(&self) -> Result<()> {
         non_negative("sim.sensors.encoder_resolution_rad", self.encoder_resolution_rad)?;
         non_negative(

@@ -86,7 +86,7 @@ impl VehicleControlConfig {
     /// Checks the values.
     ///
     /// # Errors
-    /// [`Error::Input`] naming the first bad field.
+    /// [`Error::Input`](crate::error::Error::Input) naming the first bad field.
     pub fn validate(&self) -> Result<()> {
         non_negative("sim.vehicle.position_kp", self.position_kp)?;
         non_negative("sim.vehicle.position_ki", self.position_ki)?;
