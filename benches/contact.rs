@@ -14,22 +14,8 @@ use uvms::sim::contact::{Contact, ContactConfig};
 use uvms::synth::random::{gaussian, stream};
 
 fn rough_plane() -> TriangleMesh {
-    let (n, step) = (101_u32, 0.002);
     let mut rng = stream(7, 0, 0);
-    let vertices = (0..n * n)
-        .map(|k| {
-            let (i, j) = (f64::from(k % n), f64::from(k / n));
-            Point3::new((i - 50.0) * step, (j - 50.0) * step, 0.001 * gaussian(&mut rng))
-        })
-        .collect();
-    let triangles = (0..n - 1)
-        .flat_map(|j| (0..n - 1).map(move |i| (i, j)))
-        .flat_map(|(i, j)| {
-            let (a, b, c, d) = (j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i);
-            [[a, c, b], [a, d, c]]
-        })
-        .collect();
-    TriangleMesh { vertices, triangles }
+    TriangleMesh::grid(101, 0.002, |_, _| 0.001 * gaussian(&mut rng))
 }
 
 fn bench(c: &mut Criterion) {

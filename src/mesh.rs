@@ -112,6 +112,28 @@ impl TriangleMesh {
         (points, normals)
     }
 
+    /// A square grid of `n × n` vertices `step` apart in x and y, centred on the origin, vertex
+    /// `(i, j)` (`i` along x, the index `j·n + i`, made in that order) at the height
+    /// `z(i, j)`, its triangles wound so that their normals point up (`−z`, NED).
+    pub fn grid(n: u32, step: f64, mut z: impl FnMut(u32, u32) -> f64) -> TriangleMesh {
+        let half = f64::from(n.saturating_sub(1)) / 2.0;
+        let vertices = (0..n)
+            .flat_map(|j| (0..n).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                let (x, y) = ((f64::from(i) - half) * step, (f64::from(j) - half) * step);
+                Point3::new(x, y, z(i, j))
+            })
+            .collect();
+        let triangles = (0..n.saturating_sub(1))
+            .flat_map(|j| (0..n - 1).map(move |i| (i, j)))
+            .flat_map(|(i, j)| {
+                let (a, b, c, d) = (j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i);
+                [[a, c, b], [a, d, c]]
+            })
+            .collect();
+        TriangleMesh { vertices, triangles }
+    }
+
     /// Per-vertex unit normals: the area-weighted mean of the adjacent triangles' normals (zero
     /// for a vertex no triangle uses).
     pub fn vertex_normals(&self) -> Vec<Vector3<f64>> {
@@ -137,5 +159,24 @@ impl TriangleMesh {
                 0.5 * (b - a).cross(&(c - a)).norm()
             })
             .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 3 × 3 grid 2 m apart: centred on the origin, 8 triangles covering its 16 m², every
+    /// normal up (−z), the heights where asked.
+    #[test]
+    fn a_grid_is_centred_wound_up_and_at_its_heights() {
+        let g = TriangleMesh::grid(3, 2.0, |i, j| f64::from(10 * j + i) * 1e-3);
+        assert_eq!((g.vertices.len(), g.triangles.len()), (9, 8));
+        assert_eq!(g.vertices[0], Point3::new(-2.0, -2.0, 0.0));
+        assert_eq!(g.vertices[5], Point3::new(2.0, 0.0, 0.012));
+        assert!((g.area() - 16.0).abs() < 1e-3);
+        for n in g.vertex_normals() {
+            assert!(n.z < -0.99, "{n}");
+        }
     }
 }

@@ -828,22 +828,8 @@ mod tests {
     #[test]
     fn a_footprint_smooths_a_rough_surface() {
         use crate::synth::random::{gaussian, stream};
-        let (n, step) = (101_u32, 0.002);
         let mut rng = stream(7, 0, 0);
-        let vertices = (0..n * n)
-            .map(|k| {
-                let (i, j) = (f64::from(k % n), f64::from(k / n));
-                Point3::new((i - 50.0) * step, (j - 50.0) * step, 0.001 * gaussian(&mut rng))
-            })
-            .collect();
-        let triangles = (0..n - 1)
-            .flat_map(|j| (0..n - 1).map(move |i| (i, j)))
-            .flat_map(|(i, j)| {
-                let (a, b, c, d) = (j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i);
-                [[a, c, b], [a, d, c]]
-            })
-            .collect();
-        let rough = TriangleMesh { vertices, triangles };
+        let rough = TriangleMesh::grid(101, 0.002, |_, _| 0.001 * gaussian(&mut rng));
         let sweep = |cfg: &ContactConfig| {
             let mut c = Contact::new(&rough, cfg).unwrap();
             let (mut turn, mut depth_error, mut tilt) = (0.0_f64, 0.0_f64, 0.0_f64);
@@ -894,24 +880,20 @@ mod tests {
     /// outside, and the plate pushed nothing.
     #[test]
     fn a_footprint_in_a_thin_plate_sees_its_near_face() {
-        let (n, step, thickness) = (51_u32, 0.002, 0.004);
-        let grid = |z: f64| {
-            (0..n * n).map(move |k| {
-                let (i, j) = (f64::from(k % n), f64::from(k / n));
-                Point3::new((i - 25.0) * step, (j - 25.0) * step, z)
-            })
+        let thickness = 0.004;
+        // The top face's normal up (−z), the bottom's down.
+        let top = TriangleMesh::grid(51, 0.002, |_, _| 0.0);
+        let bottom = TriangleMesh::grid(51, 0.002, |_, _| thickness);
+        let o = top.vertices.len() as u32;
+        let plate = TriangleMesh {
+            vertices: top.vertices.iter().chain(&bottom.vertices).copied().collect(),
+            triangles: top
+                .triangles
+                .iter()
+                .copied()
+                .chain(bottom.triangles.iter().map(|&[a, b, c]| [a + o, c + o, b + o]))
+                .collect(),
         };
-        let vertices = grid(0.0).chain(grid(thickness)).collect();
-        let triangles = (0..n - 1)
-            .flat_map(|j| (0..n - 1).map(move |i| (i, j)))
-            .flat_map(|(i, j)| {
-                let (a, b, c, d) = (j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i);
-                let o = n * n;
-                // The top face's normal up (−z), the bottom's down.
-                [[a, c, b], [a, d, c], [a + o, b + o, c + o], [a + o, c + o, d + o]]
-            })
-            .collect();
-        let plate = TriangleMesh { vertices, triangles };
         let mut c = Contact::new(&plate, &with_footprint(0.015)).unwrap();
         for depth in [0.0005, 0.001, 0.0019] {
             let s = c.evaluate(&Point3::new(0.001, 0.003, depth), &Vector3::zeros());
