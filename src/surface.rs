@@ -192,6 +192,22 @@ impl Surface {
         self.blend(p.triangle, p.barycentric).unwrap_or(p.normal)
     }
 
+    /// [`Surface::shaded_normal`] at the point of `triangle` (an index as in the query
+    /// results, below [`Surface::triangle_count`]) with the barycentric `weights`.
+    pub fn shaded_normal_in(&self, triangle: usize, weights: [f64; 3]) -> Vector3<f64> {
+        self.blend(triangle, weights)
+            .unwrap_or_else(|| u32::try_from(triangle).map_or(Vector3::z(), |t| self.normal(t)))
+    }
+
+    /// The corners of `triangle` (an index as in the query results), in its winding.
+    pub fn corners(&self, triangle: usize) -> Option<[Point3<f64>; 3]> {
+        let index = u32::try_from(triangle)
+            .ok()
+            .filter(|_| triangle < self.triangle_count())?;
+        let t = self.mesh.triangle(index);
+        Some([na(t.a), na(t.b), na(t.c)])
+    }
+
     /// [`Surface::shaded_normal`] where a ray hit the surface.
     pub fn shaded_normal_at_hit(&self, hit: &RayHit) -> Vector3<f64> {
         let Ok(t) = u32::try_from(hit.triangle) else {

@@ -203,24 +203,21 @@ struct Footprint {
 /// The most samples a footprint takes of a mesh: some 300 MB.
 const FOOTPRINT_MAX_SAMPLES: usize = 5_000_000;
 
-/// How many pieces a side each triangle of `mesh` is cut into for a footprint of `radius`:
-/// the least that makes their edges no longer than half the radius.
+/// How many pieces a side the triangle `a b c` is cut into for a footprint of `radius`: the
+/// least that makes their edges no longer than half the radius (clamped where the count would
+/// pass [`FOOTPRINT_MAX_SAMPLES`] anyway, to keep it in range).
+fn footprint_cuts([a, b, c]: [Point3<f64>; 3], radius: f64) -> usize {
+    let longest = (b - a).norm().max((c - b).norm()).max((a - c).norm());
+    ((2.0 * longest / radius).ceil() as usize).clamp(1, 1 << 12)
+}
+
+/// Checks that `count` samples (the sum of the triangles' squared [`footprint_cuts`]) are
+/// within [`FOOTPRINT_MAX_SAMPLES`].
 ///
 /// # Errors
 /// [`Error::Input`](crate::error::Error::Input) naming `sim.contact.footprint_radius_m`
-/// when the pieces number more than [`FOOTPRINT_MAX_SAMPLES`].
-fn footprint_cuts(mesh: &TriangleMesh, radius: f64) -> Result<Vec<usize>> {
-    let cuts: Vec<usize> = mesh
-        .triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
-            let longest = (b - a).norm().max((c - b).norm()).max((a - c).norm());
-            // (Clamped where the count would pass the cap anyway, to keep it in range.)
-            ((2.0 * longest / radius).ceil() as usize).clamp(1, 1 << 12)
-        })
-        .collect();
-    let count: usize = cuts.iter().map(|m| m * m).sum();
+/// when they are not.
+fn check_samples(count: usize, radius: f64) -> Result<()> {
     require(
         count <= FOOTPRINT_MAX_SAMPLES,
         "sim.contact.footprint_radius_m",
@@ -228,8 +225,7 @@ fn footprint_cuts(mesh: &TriangleMesh, radius: f64) -> Result<Vec<usize>> {
             "{radius} m would need at least {count} samples of the surface mesh (at most \
              {FOOTPRINT_MAX_SAMPLES}): give a larger radius or a mesh of the part the tool touches"
         ),
-    )?;
-    Ok(cuts)
+    )
 }
 
 /// Checks that a footprint of `cfg` can sample `mesh` (see [`Contact::new`]), before a run
@@ -239,46 +235,47 @@ fn footprint_cuts(mesh: &TriangleMesh, radius: f64) -> Result<Vec<usize>> {
 /// [`Error::Input`](crate::error::Error::Input) naming `sim.contact.footprint_radius_m`
 /// when it would take too many samples.
 pub fn check_footprint(cfg: &ContactConfig, mesh: &TriangleMesh) -> Result<()> {
-    if cfg.footprint_radius_m > 0.0 {
-        footprint_cuts(mesh, cfg.footprint_radius_m)?;
+    let radius = cfg.footprint_radius_m;
+    if radius <= 0.0 {
+        return Ok(());
     }
-    Ok(())
+    let count = mesh
+        .triangles
+        .iter()
+        .map(|t| footprint_cuts(t.map(|i| mesh.vertices[i as usize]), radius).pow(2))
+        .sum();
+    check_samples(count, radius)
 }
 
 impl Footprint {
-    /// Samples the mesh: each triangle is cut into `m²` equal triangles ([`footprint_cuts`]),
-    /// each a sample at its centroid with its area and the mesh's shaded normal there (the
-    /// vertex normals blended), so that a footprint on the surface holds several samples
-    /// wherever it stands.
+    /// Samples the surface: each triangle is cut into `m²` equal triangles
+    /// ([`footprint_cuts`]), each a sample at its centroid with its area and the surface's
+    /// shaded normal there ([`Surface::shaded_normal_in`]), so that a footprint on the surface
+    /// holds several samples wherever it stands.
     ///
     /// # Errors
-    /// As [`footprint_cuts`].
-    fn new(mesh: &TriangleMesh, radius: f64) -> Result<Self> {
-        let vertex_normals = mesh.vertex_normals();
-        let cuts = footprint_cuts(mesh, radius)?;
-        let count: usize = cuts.iter().map(|m| m * m).sum();
+    /// As [`check_samples`].
+    fn new(surface: &Surface, radius: f64) -> Result<Self> {
+        let triangles: Vec<_> = (0..surface.triangle_count())
+            .filter_map(|t| Some((t, surface.corners(t)?)))
+            .map(|(t, corners)| (t, corners, footprint_cuts(corners, radius)))
+            .collect();
+        let count = triangles.iter().map(|(_, _, m)| m * m).sum();
+        check_samples(count, radius)?;
         let (mut points, mut normals, mut areas) = (
             Vec::with_capacity(count),
             Vec::with_capacity(count),
             Vec::with_capacity(count),
         );
-        for (t, &m) in mesh.triangles.iter().zip(&cuts) {
-            let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
-            let [na, nb, nc] = t.map(|i| vertex_normals[i as usize]);
-            let facet = (b - a).cross(&(c - a));
-            let area = 0.5 * facet.norm() / (m * m) as f64;
+        for (t, [a, b, c], m) in triangles {
+            let area = 0.5 * (b - a).cross(&(c - a)).norm() / (m * m) as f64;
             let mf = m as f64;
             // The centroids of the small triangles pointing like the triangle (offset 1/3) and
             // of those pointing the other way (2/3), in the weights (u, v) of `b` and `c`.
             let mut sample = |u: f64, v: f64| {
                 let w = 1.0 - u - v;
                 points.push(Point3::from(a.coords * w + b.coords * u + c.coords * v));
-                let n = na * w + nb * u + nc * v;
-                normals.push(
-                    n.try_normalize(1e-12)
-                        .or_else(|| facet.try_normalize(1e-300))
-                        .unwrap_or_else(Vector3::zeros),
-                );
+                normals.push(surface.shaded_normal_in(t, [w, u, v]));
                 areas.push(area);
             };
             for i in 0..m {
@@ -366,7 +363,7 @@ impl Contact {
         cfg.validate()?;
         let surface = Surface::new(mesh)?;
         let footprint = if cfg.footprint_radius_m > 0.0 {
-            Some(Footprint::new(mesh, cfg.footprint_radius_m)?)
+            Some(Footprint::new(&surface, cfg.footprint_radius_m)?)
         } else {
             None
         };

@@ -588,7 +588,9 @@ pub fn simulate(
     let mut rate_from: Option<Isometry3<f64>> = None;
     let mut qd_set = JointVector::zeros();
     let mut m_ez_true_prev = JointVector::zeros();
-    let (mut ramp_from, mut ramp_caught_up): (Option<f64>, bool) = (None, false);
+    // The force the bumpless start holds (below), from the period the force loop takes over;
+    // zero once the trajectory's ramp has reached it.
+    let mut held: Option<f64> = None;
     // The force the dwell's ramp rises to (the first contact point's).
     let ramp_to = trajectory
         .phase(Phase::Contact)
@@ -633,12 +635,12 @@ pub fn simulate(
         // true surface stands out of the planned one, and the approach touched it), the
         // set-point rises from that force, held until the trajectory's ramp reaches it (or the
         // dwell ends). Ramping from zero, the loop pulled the tool back off the surface.
-        if pressing && !ramp_caught_up {
-            let from = *ramp_from.get_or_insert_with(|| s.k.dot(&f_imp_est).min(ramp_to).max(0.0));
-            if s.force >= from || s.phase == Phase::Contact {
-                ramp_caught_up = true;
+        if pressing {
+            let from = held.get_or_insert_with(|| s.k.dot(&f_imp_est).min(ramp_to).max(0.0));
+            if s.force >= *from || s.phase == Phase::Contact {
+                *from = 0.0;
             } else {
-                s.force = from;
+                s.force = *from;
             }
         }
         let offset = if !cfg.scenario.force_loop {
