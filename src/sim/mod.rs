@@ -3,6 +3,7 @@
 //!
 //! One module per block of Figure 4:
 //! - [`contact`]: the tool against the *true* surface (penalty, friction, soil) — plant side;
+//! - [`current`]: the sea current, steady or fluctuating — plant side;
 //! - [`sensors`] and [`navigation`] (NS): encoders, joint-torque sensors, gyros,
 //!   accelerometers, the delayed vision fix, and the attitude, position and velocity estimated
 //!   from them;
@@ -24,6 +25,7 @@
 //! the true one is only logged.
 
 pub mod contact;
+pub mod current;
 pub mod fcu;
 pub mod hover;
 pub mod icu;
@@ -47,6 +49,7 @@ use crate::spatial_algebra::Force;
 use crate::trajectory::{Phase, Trajectory};
 use crate::vehicle::thrusters::Thrusters;
 use contact::{Contact, ContactConfig};
+use current::SeaCurrent;
 use fcu::{Fcu, FcuConfig, force_error};
 use hover::{Hover, HoverConfig};
 use icu::{Icu, IcuConfig};
@@ -151,8 +154,13 @@ impl ModelMismatch {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Scenario {
-    /// Sea current in the world (NED), m/s.
+    /// Sea current in the world (NED), m/s: its mean when it varies.
     pub current_m_s: [f64; 3],
+    /// Stationary standard deviation of the current's fluctuation on each world axis, m/s
+    /// (zero: a steady current).
+    pub current_variation_m_s: [f64; 3],
+    /// Correlation time of the current's fluctuation, s.
+    pub current_correlation_s: f64,
     /// The open loop of eq. (17) in the vehicle's stabilisation.
     pub open_loop: bool,
     /// The trajectory correction of eq. (18).
@@ -165,10 +173,40 @@ impl Default for Scenario {
     fn default() -> Self {
         Scenario {
             current_m_s: [0.0; 3],
+            current_variation_m_s: [0.0; 3],
+            current_correlation_s: 10.0,
             open_loop: true,
             trajectory_correction: true,
             force_loop: true,
         }
+    }
+}
+
+impl Scenario {
+    /// Checks the current's fluctuation: finite, non-negative spreads whose four standard
+    /// deviations with the mean stay within the fastest current, a positive correlation time.
+    fn check_variation(&self) -> Result<()> {
+        let key = "sim.scenario.current_variation_m_s";
+        let [sx, sy, sz] = self.current_variation_m_s;
+        require(
+            [sx, sy, sz].iter().all(|s| *s >= 0.0),
+            key,
+            "each axis's standard deviation must be finite and at least 0",
+        )?;
+        let widest: [f64; 3] =
+            std::array::from_fn(|i| self.current_m_s[i].abs() + 4.0 * self.current_variation_m_s[i]);
+        check_current(&format!("{key} (its mean and four standard deviations)"), widest)?;
+        positive("sim.scenario.current_correlation_s", self.current_correlation_s)?;
+        require(
+            self.current_correlation_s <= MAX_WAIT_S,
+            "sim.scenario.current_correlation_s",
+            format!("must be at most {MAX_WAIT_S:.0e} s"),
+        )
+    }
+
+    /// Whether the current fluctuates.
+    pub fn current_varies(&self) -> bool {
+        self.current_variation_m_s != [0.0; 3]
     }
 }
 
@@ -361,6 +399,7 @@ impl SimConfig {
         }
         non_negative("sim.settle_time_s", self.settle_time_s)?;
         check_current("sim.scenario.current_m_s", self.scenario.current_m_s)?;
+        self.scenario.check_variation()?;
         positive("sim.dwell.tolerance_n", self.dwell.tolerance_n)?;
         non_negative("sim.dwell.hold_s", self.dwell.hold_s)?;
         non_negative("sim.dwell.max_wait_s", self.dwell.max_wait_s)?;
@@ -497,6 +536,13 @@ pub fn simulate(
     let hover = hover::choose(&ctrl, &allocator, trajectory, &cfg.hover)?;
     let h = hover.t_world_body;
     let mut plant = Plant::new(&plant_model, State::at_rest(h, hover.q_start), cfg.integrator)?;
+    let sc = &cfg.scenario;
+    let mut sea = SeaCurrent::new(
+        sc.current_m_s,
+        sc.current_variation_m_s,
+        sc.current_correlation_s,
+        cfg.seed,
+    );
     let mut contact = Contact::new(surface, &cfg.contact)?;
     let dt = 1.0 / cfg.control_rate_hz;
     let mut sensors = Sensors::new(&cfg.sensors, cfg.seed, h.translation.vector, dt);
@@ -739,6 +785,7 @@ pub fn simulate(
                 f_env_true: &cs.wrench.lin,
                 f_imp_est: &f_imp_est,
                 t_world_tool: &t_world_tool,
+                current: &plant.system.current,
                 thrusts: plant.thrusters.thrusts(),
                 in_contact: cs.in_contact(),
             }));
@@ -761,6 +808,8 @@ pub fn simulate(
             offset,
             thrust_utilisation: alloc.utilisation,
         });
+        // The plant's water over the period ahead.
+        plant.system.current = sea.step(dt);
         let mut first_acc = None;
         for sub in 0..cfg.plant_substeps {
             let (contact_now, damping_now) = if sub > 0 {
@@ -789,8 +838,17 @@ pub fn simulate(
                     shown_xyz(&cfg.scenario.current_m_s, 2)
                 )
             };
+            let varying = if cfg.scenario.current_varies() {
+                format!(
+                    "; the current varies (standard deviations {} m/s) and was {} m/s",
+                    shown_xyz(&cfg.scenario.current_variation_m_s, 2),
+                    shown_xyz(&sea.now().into(), 2)
+                )
+            } else {
+                String::new()
+            };
             format!(
-                "; the thrusters saturated in {:.1} % of the periods{station}",
+                "; the thrusters saturated in {:.1} % of the periods{station}{varying}",
                 100.0 * saturated as f64 / (k + 1) as f64
             )
         })?;

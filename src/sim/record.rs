@@ -12,7 +12,7 @@
 //! `e_x_m, e_y_m, e_z_m, e_m` (tool tip minus where the control system wants it, `P* + ΔP*`),
 //! `r_x_m, r_y_m, r_z_m, r_m` (vehicle minus its stabilisation point), `phi_rad, theta_rad,
 //! psi_rad` (the vehicle's attitude relative to its stabilisation attitude, roll–pitch–yaw),
-//! `thrust1_n..`, `contact` (1 in contact).
+//! `current_x_m_s, current_y_m_s, current_z_m_s` (the sea current), `thrust1_n..`, `contact` (1 in contact).
 
 use super::Scenario;
 use crate::arm::JointVector;
@@ -64,6 +64,8 @@ pub struct Row {
     pub r: Vector3<f64>,
     /// Roll, pitch, yaw relative to the stabilisation attitude, rad.
     pub rpy: [f64; 3],
+    /// The sea current the plant moves in (world), m/s.
+    pub current: Vector3<f64>,
     /// Thrusts, N.
     pub thrusts: Vec<f64>,
     /// In contact.
@@ -101,6 +103,8 @@ pub struct RowInput<'a> {
     pub f_imp_est: &'a Vector3<f64>,
     /// The true tool pose.
     pub t_world_tool: &'a Isometry3<f64>,
+    /// The sea current (world), m/s.
+    pub current: &'a Vector3<f64>,
     /// Thrusts, N.
     pub thrusts: &'a [f64],
     /// In contact.
@@ -138,6 +142,7 @@ impl Row {
             e: *i.deviation,
             r: i.state.t_world_body.translation.vector - i.hover.translation.vector,
             rpy: [phi, theta, psi],
+            current: *i.current,
             thrusts: i.thrusts.to_vec(),
             contact: i.in_contact,
         }
@@ -411,6 +416,9 @@ pub fn write_csv(rows: &[Row], w: &mut dyn Write) -> Result<()> {
         "phi_rad",
         "theta_rad",
         "psi_rad",
+        "current_x_m_s",
+        "current_y_m_s",
+        "current_z_m_s",
     ] {
         head.push(c.into());
     }
@@ -440,6 +448,7 @@ pub fn write_csv(rows: &[Row], w: &mut dyn Write) -> Result<()> {
         v.extend(r.r.iter());
         v.push(r.r.norm());
         v.extend(r.rpy);
+        v.extend(r.current.iter());
         v.extend(r.thrusts.iter());
         line.clear();
         // Writing into a `String` cannot fail.
