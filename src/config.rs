@@ -167,10 +167,22 @@ pub fn load<T: DeserializeOwned + Serialize + Default>(path: Option<&Path>) -> R
 /// A text file's contents.
 ///
 /// # Errors
-/// [`Error::Input`] naming the file: unreadable, or not UTF-8 text, then `not {what}` (a PLY or
-/// other binary file given for a configuration, a trajectory, a pose), not the reader's
-/// "stream did not contain valid UTF-8".
+/// [`Error::Input`] naming the file: missing, a directory or not a regular file (a device or a
+/// pipe, which could be endless or never end: the PLY reader refuses them alike), unreadable,
+/// or not UTF-8 text, then `not {what}` (a PLY or other binary file given for a configuration,
+/// a trajectory, a pose), not the reader's "stream did not contain valid UTF-8".
 pub fn read_text(path: &Path, what: &str) -> Result<String> {
+    let meta =
+        std::fs::metadata(path).map_err(|e| Error::input(path.display(), format!("cannot read: {e}")))?;
+    if meta.is_dir() {
+        return Err(Error::input(
+            path.display(),
+            format!("is a directory, not {what}"),
+        ));
+    }
+    if !meta.is_file() {
+        return Err(Error::input(path.display(), "is not a regular file"));
+    }
     std::fs::read_to_string(path).map_err(|e| {
         let why = if e.kind() == std::io::ErrorKind::InvalidData {
             format!("not {what} (not UTF-8 text: a PLY or other binary file?)")
@@ -235,15 +247,27 @@ pub fn within_range<T: Serialize>(value: &T, prefix: &str) -> Result<()> {
         }
     }
     match toml::Value::try_from(value).ok().and_then(|v| walk(&v, "")) {
-        Some((key, v)) => Err(Error::input(
-            format!("{prefix}{key}"),
+        Some((key, v)) => within_max(v, || format!("{prefix}{key}")),
+        None => Ok(()),
+    }
+}
+
+/// `Ok` if the real value `v` is within ±[`MAX_VALUE`] (or NaN, left to its own check), else an
+/// input error naming `what()` (a key, or a file's line and column; made only then).
+///
+/// # Errors
+/// [`Error::Input`] naming `what()`.
+pub fn within_max<D: std::fmt::Display>(v: f64, what: impl FnOnce() -> D) -> Result<()> {
+    if v.abs() > MAX_VALUE {
+        return Err(Error::input(
+            what(),
             format!(
                 "{} is beyond any scene, vehicle, sensor or material in SI units (every real value is within ±{MAX_VALUE:.0e})",
                 shown(v)
             ),
-        )),
-        None => Ok(()),
+        ));
     }
+    Ok(())
 }
 
 /// `Ok` if `v` is finite and > 0, else an input error naming `what` (a configuration key).
@@ -391,6 +415,20 @@ mod tests {
             msg.contains("model.ply") && msg.contains("not a TOML file"),
             "{msg}"
         );
+    }
+
+    /// A directory or a device given for a text file is refused up front (an endless device
+    /// was read until memory ran out; a pipe without a writer never returned).
+    #[test]
+    fn a_directory_or_a_device_is_not_a_text_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = read_text(dir.path(), "a TOML file").unwrap_err();
+        assert!(e.to_string().ends_with("is a directory, not a TOML file"), "{e}");
+        #[cfg(unix)]
+        {
+            let e = read_text(Path::new("/dev/zero"), "a TOML file").unwrap_err();
+            assert_eq!(e.to_string(), "/dev/zero: is not a regular file");
+        }
     }
 
     #[test]

@@ -364,6 +364,7 @@ fn parse_row(line: &str, at: &str) -> Result<Sample> {
             .parse()
             .map_err(|_| Error::input(col(c), format!("'{}' is not a number", fields[c])))?;
         if v.is_finite() {
+            crate::config::within_max(v, || col(c))?;
             Ok(v)
         } else {
             Err(Error::input(col(c), format!("'{}' is not finite", fields[c])))
@@ -484,6 +485,7 @@ mod tests {
         assert!(corrupt(2, 4, "0.5").contains("column 5 (qw)"));
         assert!(corrupt(2, 8, "2").contains("column 9 (kx)"));
         assert!(corrupt(2, 11, "-3").contains("column 12 (force_n)"));
+        assert!(corrupt(2, 11, "1e300").contains("column 12 (force_n): 1e300 is beyond"));
         assert!(corrupt(3, 12, "hover").contains("column 13 (phase)"));
         assert!(corrupt(3, 13, "yes").contains("column 14 (fallback)"));
     }

@@ -239,6 +239,13 @@ fn bad_input_is_exit_2() {
     .unwrap();
     let typo = dir.path().join("typo.toml");
     std::fs::write(&typo, "[seabed]\nthreshold = 0.01\n").unwrap();
+    // A reference mesh with a hole: a face on a vertex that is not finite.
+    let holed = dir.path().join("holed.ply");
+    std::fs::write(
+        &holed,
+        b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n0.1 0 0\n0 0.1 0\nnan 0.1 0\n3 0 1 2\n3 1 3 2\n",
+    )
+    .unwrap();
     let cases: Vec<Vec<String>> = vec![
         vec![
             "segment".into(),
@@ -257,6 +264,12 @@ fn bad_input_is_exit_2() {
             scan.display().to_string(),
             "--reference".into(),
             junk.display().to_string(),
+        ],
+        vec![
+            "check".into(),
+            scan.display().to_string(),
+            "--reference".into(),
+            holed.display().to_string(),
         ],
         vec![
             "check".into(),

@@ -404,6 +404,21 @@ fn a_changing_current_is_felt_and_the_contact_holds() {
     assert!(moved > 0.02, "the current reached {moved} m/s");
 }
 
+/// A stabilisation without integral action (`position_ki = 0`, a valid gain) holds the station
+/// on its proportional and rate terms: the hold before the run cannot put the water's or the
+/// model's residual wrench into an integral, and leaves the current's estimate at still water
+/// (it took the growing trim for a current of 0.26 m/s and the run failed to start, exit 1).
+#[test]
+fn a_stabilisation_without_integral_action_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = variant(dir.path(), "[sim.vehicle]\nposition_ki = 0.0");
+    let sim = run_pipeline(&p, &dir.path().join("out"))["sim"].clone();
+    let f = |key: &str| sim[key].as_f64().unwrap();
+    assert!((f("force_settled_mean_n") - 60.0).abs() <= 1.0, "{sim}");
+    assert_eq!(f("contact_lost_s"), 0.0, "{sim}");
+    assert!(f("auv_deviation_max_m") <= 0.04, "{sim}");
+}
+
 /// The seed's bottle figures in the seed's own conditions: its simulation states no sensor
 /// noise, and with every sensor noise-free (the encoders' resolution and the vision fix's
 /// 0.25 s delay kept) the joint moments are identified within the seed's 0.5 N·m at every
@@ -515,6 +530,20 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("vehicle_damping_scale"));
     assert!(!o4.exists(), "a bad controller model left files");
+    // With a trace of damping, the current it reads from the held thrust is faster than any
+    // sea (it was 1e48 m/s, and the run failed at once as a runaway).
+    let p6 = variant(dir.path(), "[sim.controller_model]\nvehicle_damping_scale = 1e-9");
+    let o = run(&[
+        "run",
+        p6.to_str().unwrap(),
+        "--out",
+        dir.path().join("o6").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr)
+            .contains("vehicle_damping_scale: the controllers' estimate of the current")
+    );
     let p3 = variant(dir.path(), "");
     let text = std::fs::read_to_string(&p3)
         .unwrap()
@@ -1030,6 +1059,8 @@ fn a_footprint_the_surface_cannot_take_is_refused_up_front() {
     let dir = tempfile::tempdir().unwrap();
     for (name, radius, says) in [
         ("bottle_cleaning", "1e-6", "samples of the surface mesh"),
+        // A plate, not a tool: it took 34 s where the point takes 1.3 s.
+        ("bottle_cleaning", "0.5", "wider than a tool's footprint"),
         ("soil_sampling", "0.01", "applies to a rigid surface"),
     ] {
         let text = pipeline_text(name);

@@ -275,8 +275,9 @@ pub fn run(args: &CheckArgs, _ctx: &Ctx) -> Result<Report> {
     }
     let mut text = check_text(&result);
     if let Some(out) = &out {
-        out.write_toml("config.toml", &cfg)?;
         text += &write_check_products(out, &result, &args.reference)?;
+        // The configuration last: a run whose products failed leaves none.
+        out.write_toml("config.toml", &cfg)?;
     }
     Ok(Report {
         summary,

@@ -53,9 +53,11 @@ pub fn parse_vector3(s: &str) -> std::result::Result<Vector3<f64>, String> {
 /// Reads a reference model: a PLY with faces is a mesh (sampled), one without is a cloud.
 ///
 /// # Errors
-/// [`Error::Input`] naming the file if it cannot be read or holds too little.
+/// [`Error::Input`] naming the file if it cannot be read, holds too little, or has faces on a
+/// vertex that is not finite.
 pub fn load_reference(path: &Path, cfg: &PerceptionConfig) -> Result<ReferenceModel> {
     let data = read_ply(path)?;
+    crate::io::ply::refuse_holes(path, &data.info)?;
     let what = path.display().to_string();
     if data.triangles.is_empty() {
         ReferenceModel::from_cloud(data.cloud, &cfg.normals, &what)
@@ -233,7 +235,6 @@ pub fn run(args: &SegmentArgs, _ctx: &Ctx) -> Result<Report> {
         &cfg,
     )?;
     let (scene, clusters) = coloured(&seg);
-    out.write_toml("config.toml", &cfg)?;
     out.write_with("segmented.ply", |w| write_cloud(w, &scene))?;
     out.write_with("clusters.ply", |w| write_cloud(w, &clusters))?;
     let mut object = seg.object_cloud();
@@ -245,6 +246,8 @@ pub fn run(args: &SegmentArgs, _ctx: &Ctx) -> Result<Report> {
         seabed.normals = None;
         out.write_with("seabed.ply", |w| write_cloud(w, &seabed))?;
     }
+    // The configuration last: a run whose products failed leaves none.
+    out.write_toml("config.toml", &cfg)?;
     let mut summary = segmentation_summary(&seg);
     summary["scan"] = json!(args.scan.display().to_string());
     let mut text = String::new();

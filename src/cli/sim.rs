@@ -75,15 +75,19 @@ pub fn sim_text(s: &SimSummary) -> String {
         s.simulated_s, s.realtime_factor
     );
     let f = |v: Option<f64>| v.map_or("never".to_string(), |v| format!("{v:.2} s"));
+    // No settled force to show (never touched, or not for long): said so, not "NaN N".
+    let settled = if s.figures.force_settled_mean_n.is_finite() {
+        format!(
+            "settled mean {:.2} N (min {:.2}, RMS error {:.2})",
+            s.figures.force_settled_mean_n, s.figures.force_settled_min_n, s.figures.force_rms_error_n
+        )
+    } else {
+        "no settled force".to_string()
+    };
     let _ = writeln!(
         t,
-        "  force      setpoint {:.1} N, settled mean {:.2} N (min {:.2}, RMS error {:.2}), overshoot {:.2} N, max {:.2} N",
-        s.figures.force_setpoint_n,
-        s.figures.force_settled_mean_n,
-        s.figures.force_settled_min_n,
-        s.figures.force_rms_error_n,
-        s.figures.force_overshoot_n,
-        s.figures.force_max_n
+        "  force      setpoint {:.1} N, {settled}, overshoot {:.2} N, max {:.2} N",
+        s.figures.force_setpoint_n, s.figures.force_overshoot_n, s.figures.force_max_n
     );
     let _ = writeln!(
         t,

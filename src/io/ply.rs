@@ -113,26 +113,38 @@ pub fn read_mesh(path: &Path) -> Result<TriangleMesh> {
             "the header declares no 'face' element: a point cloud, not a mesh",
         ));
     }
-    if p.info.triangles_dropped > 0 {
-        return Err(Error::input(
-            path.display(),
-            format!(
-                "{} triangles use a vertex whose position is not finite (NaN or infinite; {} such vertices): the surface would have holes there",
-                p.info.triangles_dropped, p.info.non_finite_dropped
-            ),
-        ));
-    }
+    refuse_holes(path, &p.info)?;
     Ok(TriangleMesh {
         vertices: p.cloud.points,
         triangles: p.triangles,
     })
 }
 
-/// Reads everything: vertices (with colours and normals), faces (validated and triangulated when
-/// the file has them) and the [`PlyInfo`].
+/// Refuses the faces of `path` if any uses a vertex whose position is not finite (`info` from
+/// reading it): the surface would have a hole there.
 ///
 /// # Errors
-/// As [`read_mesh`], except that a file without faces is accepted.
+/// [`Error::Input`] naming the file and the count.
+pub fn refuse_holes(path: &Path, info: &PlyInfo) -> Result<()> {
+    if info.triangles_dropped > 0 {
+        return Err(Error::input(
+            path.display(),
+            format!(
+                "{} triangles use a vertex whose position is not finite (NaN or infinite; {} such vertices): the surface would have holes there",
+                info.triangles_dropped, info.non_finite_dropped
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Reads everything: vertices (with colours and normals), faces (validated and triangulated when
+/// the file has them; a face using a vertex that is not finite is dropped and counted in the
+/// [`PlyInfo`], for [`refuse_holes`]) and the [`PlyInfo`].
+///
+/// # Errors
+/// As [`read_cloud`], plus a face element [`read_mesh`] refuses on its own terms (not the
+/// vertices that are not finite).
 pub fn read_ply(path: &Path) -> Result<PlyData> {
     let p = ply_read::read(path, Faces::Read)?;
     Ok(PlyData {

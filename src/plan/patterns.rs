@@ -882,12 +882,13 @@ pub fn read_polyline(path: &Path) -> Result<Vec<(Point3<f64>, Option<f64>)>> {
         }
         let mut v = [0.0; 4];
         for (c, f) in fields.iter().enumerate() {
-            v[c] = f.parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
-                Error::input(
-                    format!("{origin} line {} column {}", i + 1, c + 1),
-                    format!("'{f}' is not a finite number"),
-                )
-            })?;
+            let at = || format!("{origin} line {} column {}", i + 1, c + 1);
+            v[c] = f
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| Error::input(at(), format!("'{f}' is not a finite number")))?;
+            crate::config::within_max(v[c], at)?;
         }
         if ncol == 4 && v[3] < 0.0 {
             return Err(Error::input(

@@ -102,8 +102,9 @@ pub struct ContactConfig {
     pub soil_resistance_n_m: f64,
     /// The normal the force acts along.
     pub normals: Normals,
-    /// The radius of the patch the tool presses on, m (rigid surfaces; 0: a point): the surface
-    /// under the tool is the mesh averaged over it (see the module's documentation).
+    /// The radius of the patch the tool presses on, m (rigid surfaces; 0: a point; at most
+    /// 0.1 m): the surface under the tool is the mesh averaged over it (see the module's
+    /// documentation).
     pub footprint_radius_m: f64,
 }
 
@@ -134,6 +135,14 @@ impl ContactConfig {
         non_negative("sim.contact.friction", self.friction)?;
         non_negative("sim.contact.soil_resistance_n_m", self.soil_resistance_n_m)?;
         non_negative("sim.contact.footprint_radius_m", self.footprint_radius_m)?;
+        require(
+            self.footprint_radius_m <= FOOTPRINT_MAX_RADIUS_M,
+            "sim.contact.footprint_radius_m",
+            format!(
+                "{} m is wider than a tool's footprint (at most {FOOTPRINT_MAX_RADIUS_M} m): the force acts at the tip with no moment, which a pad that wide would feel, and the contact would sum over a patch the size of the object every period",
+                crate::config::shown(self.footprint_radius_m)
+            ),
+        )?;
         require(
             self.material == Material::Rigid || self.footprint_radius_m == 0.0,
             "sim.contact.footprint_radius_m",
@@ -199,6 +208,9 @@ struct Footprint {
     /// allocation).
     weighed: Vec<(u32, f64)>,
 }
+
+/// The widest footprint, m: a brush's or a pad's radius.
+const FOOTPRINT_MAX_RADIUS_M: f64 = 0.1;
 
 /// The most samples a footprint takes of a mesh: some 300 MB.
 const FOOTPRINT_MAX_SAMPLES: usize = 5_000_000;

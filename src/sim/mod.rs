@@ -38,7 +38,7 @@ pub mod vehicle_control;
 
 use crate::arm::JointVector;
 use crate::arm::dynamics::BaseMotion;
-use crate::config::{non_negative, positive, require, shown, shown_xyz};
+use crate::config::{non_negative, positive, require, shown, shown_to, shown_xyz};
 use crate::error::{Error, Result};
 use crate::integrate::Integrator;
 use crate::mesh::TriangleMesh;
@@ -595,6 +595,15 @@ pub fn simulate(
         if moved < HOLD_TOLERANCE_M_S {
             break;
         }
+    }
+    if current.norm() > MAX_CURRENT_M_S {
+        return Err(Error::input(
+            "sim.controller_model.vehicle_damping_scale",
+            format!(
+                "the controllers' estimate of the current at the station held before the run is {} m/s, faster than any sea: their vehicle's drag is too weak to read the current from the thrust (or set [sim.vehicle] current_filter_s = 0 to assume still water)",
+                shown_to(current.norm(), 2)
+            ),
+        ));
     }
     if moved >= HOLD_TOLERANCE_M_S {
         return Err(Error::failed(

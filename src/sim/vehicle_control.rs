@@ -138,14 +138,20 @@ impl VehicleControl {
     /// Sets the integral so that the closed loop, at no error, asks for `wrench` (`[F; M]`,
     /// `C` axes) — what it had converged to while the station was held before the run — and
     /// the current's estimate to what that linear part holds against. An axis without
-    /// integral gain keeps its integral at zero (the loop then asks for less than `wrench`).
+    /// integral gain keeps its integral at zero: the loop then asks for less than `wrench`,
+    /// and, at no error, holds nothing against the current (the vehicle settles off the
+    /// station by what is left over the position gain).
     pub fn trim(&mut self, wrench: &Vector6<f64>) {
         let c = &self.cfg;
         for i in 0..6 {
             let ki = if i < 3 { c.position_ki } else { c.attitude_ki };
             self.integral[i] = if ki > 0.0 { wrench[i] / ki } else { 0.0 };
         }
-        self.holding = wrench.fixed_rows::<3>(0).into_owned();
+        self.holding = if c.position_ki > 0.0 {
+            wrench.fixed_rows::<3>(0).into_owned()
+        } else {
+            Vector3::zeros()
+        };
     }
 
     /// Whether the current is learnt from the thrust from now on (`true` at the start; the
@@ -350,8 +356,9 @@ mod tests {
     }
 
     /// A stabilisation trimmed to hold its vehicle at rest against the drag of a current
-    /// reports that current (world axes, the vehicle turned), with or without integral gain.
-    /// While the current is not learnt the estimate stays, in the world, as the thrust changes
+    /// reports that current (world axes, the vehicle turned). Without integral gain the loop
+    /// holds nothing at the station (its error zero), and reports still water: it learns the
+    /// current from its proportional thrust once the vehicle has drifted off. While the current is not learnt the estimate stays, in the world, as the thrust changes
     /// and the vehicle turns; learnt, it follows the thrust. With `current_filter_s = 0` the
     /// controllers assume still water.
     #[test]
@@ -381,7 +388,10 @@ mod tests {
             position_ki: 0.0,
             ..cfg
         };
-        assert!((trimmed(&no_integral).current(&vehicle, &attitude) - current).norm() < 1e-12);
+        assert_eq!(
+            trimmed(&no_integral).current(&vehicle, &attitude),
+            Vector3::zeros()
+        );
         // A decimetre off station: the closed loop's thrust changes.
         let nav = Navigation::new(
             &Default::default(),
