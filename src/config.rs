@@ -164,25 +164,34 @@ pub fn load<T: DeserializeOwned + Serialize + Default>(path: Option<&Path>) -> R
     }
 }
 
+/// `Ok` if `path` is a regular file (an input given as `what`: "a PLY file", "a TOML file").
+///
+/// # Errors
+/// [`Error::Input`] naming the file: missing, a directory, or not a regular file (a device or
+/// a pipe, which could be endless or never end).
+pub fn regular_file(path: &Path, what: &str) -> Result<()> {
+    let fail = |reason: String| Error::input(path.display(), reason);
+    let meta = std::fs::metadata(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => fail("no such file".into()),
+        _ => fail(format!("cannot open: {e}")),
+    })?;
+    if meta.is_dir() {
+        return Err(fail(format!("is a directory, not {what}")));
+    }
+    if !meta.is_file() {
+        return Err(fail("is not a regular file".into()));
+    }
+    Ok(())
+}
+
 /// A text file's contents.
 ///
 /// # Errors
-/// [`Error::Input`] naming the file: missing, a directory or not a regular file (a device or a
-/// pipe, which could be endless or never end: the PLY reader refuses them alike), unreadable,
-/// or not UTF-8 text, then `not {what}` (a PLY or other binary file given for a configuration,
+/// [`Error::Input`] naming the file: as [`regular_file`] (the PLY reader refuses the same),
+/// unreadable, or not UTF-8 text, then `not {what}` (a PLY or other binary file given for a configuration,
 /// a trajectory, a pose), not the reader's "stream did not contain valid UTF-8".
 pub fn read_text(path: &Path, what: &str) -> Result<String> {
-    let meta =
-        std::fs::metadata(path).map_err(|e| Error::input(path.display(), format!("cannot read: {e}")))?;
-    if meta.is_dir() {
-        return Err(Error::input(
-            path.display(),
-            format!("is a directory, not {what}"),
-        ));
-    }
-    if !meta.is_file() {
-        return Err(Error::input(path.display(), "is not a regular file"));
-    }
+    regular_file(path, what)?;
     std::fs::read_to_string(path).map_err(|e| {
         let why = if e.kind() == std::io::ErrorKind::InvalidData {
             format!("not {what} (not UTF-8 text: a PLY or other binary file?)")

@@ -304,6 +304,18 @@ fn bad_input_is_exit_2() {
             junk.display().to_string(),
         ],
     ];
+    // The hole is named (read as a cloud, the model fitted no cluster: exit 1).
+    let o = run(&[
+        "check",
+        scan.to_str().unwrap(),
+        "--reference",
+        holed.to_str().unwrap(),
+    ]);
+    assert!(
+        stderr(&o).contains("holed.ply: 1 triangles use a vertex whose position is not finite"),
+        "{}",
+        stderr(&o)
+    );
     for args in cases {
         let a: Vec<&str> = args.iter().map(String::as_str).collect();
         let o = run(&a);

@@ -193,7 +193,7 @@ fn failed_runs_exit_1_and_bad_input_exits_2() {
             "x_m,y_m,z_m\n0.1,0,0\n0.1,0,0\n",
             "bad.csv line 3: repeats the previous point",
         ),
-        // A force past any tool's (it failed the hover point, exit 1, after planning).
+        // A force past any tool's (it was planned, then failed the hover point: exit 1).
         (
             "x_m,y_m,z_m,force_n\n0,0,0,60\n0.1,0,0,1e300\n",
             "bad.csv line 3 column 4: 1e300 is beyond",

@@ -68,6 +68,36 @@ fn summary_in(out: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
 }
 
+/// A run's `timeseries.csv` (in the folder `out`): its header and its rows' fields.
+struct Series {
+    header: Vec<String>,
+    rows: Vec<Vec<String>>,
+}
+
+impl Series {
+    fn read(out: &Path) -> Series {
+        let text = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+        let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+        let split = |l: &str| l.split(',').map(str::to_string).collect::<Vec<_>>();
+        let header = split(lines.next().unwrap());
+        Series {
+            header,
+            rows: lines.map(split).collect(),
+        }
+    }
+
+    /// The index of the column `name`.
+    fn col(&self, name: &str) -> usize {
+        self.header.iter().position(|h| h == name).unwrap()
+    }
+
+    /// The column `name`'s values.
+    fn values(&self, name: &str) -> Vec<f64> {
+        let c = self.col(name);
+        self.rows.iter().map(|r| r[c].parse().unwrap()).collect()
+    }
+}
+
 /// The text of the committed pipeline `name` with its paths made absolute.
 fn pipeline_text(name: &str) -> String {
     std::fs::read_to_string(repo(&format!("pipelines/{name}.toml")))
@@ -163,22 +193,25 @@ fn bottle_cleaning_end_to_end() {
     let r = sim["auv_deviation_max_m"].as_f64().unwrap();
     assert!(r <= 0.04, "‖r‖ {r} m");
     // The timeseries is at least 100 Hz and covers the run.
-    let csv = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
-    let rows = csv.lines().filter(|l| !l.starts_with('#')).count() - 1;
+    let series = Series::read(out);
+    let rows = series.rows.len();
     // The joint-moment identification (M_ez from the torque sensors and the controller's model)
     // against the plant's true external moments, in the contact phase: the largest error over
     // the six joints per row, typically well within the seed's 0.5 N·m (0.17-0.18 on seeds
     // 1-3; the torque sensors' noise through the drive equation and the model's heavier links
     // set the floor).
-    let mut lines = csv.lines().filter(|l| !l.starts_with('#'));
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let phase = col("phase");
+    let phase = series.col("phase");
     let pairs: Vec<(usize, usize)> = (1..=6)
-        .map(|j| (col(&format!("mez{j}_true")), col(&format!("mez{j}_id"))))
+        .map(|j| {
+            (
+                series.col(&format!("mez{j}_true")),
+                series.col(&format!("mez{j}_id")),
+            )
+        })
         .collect();
-    let mut errors: Vec<f64> = lines
-        .map(|l| l.split(',').collect::<Vec<_>>())
+    let mut errors: Vec<f64> = series
+        .rows
+        .iter()
         .filter(|f| f[phase] == "contact")
         .map(|f| {
             let v = |i: usize| f[i].parse::<f64>().unwrap();
@@ -366,7 +399,7 @@ fn a_sea_current_is_estimated_and_not_taken_for_contact() {
 
 /// A changing sea current (each horizontal axis fluctuating by 0.1 m/s, the vertical by a
 /// quarter of that, correlated over 10 s, about still water): the plant feels it — the logged
-/// current moves by centimetres a second and the vehicle strays further than in still water —
+/// current moves as the process does and the vehicle strays further than in still water —
 /// and the contact operation still meets the seed's figures for the force, the contact and the
 /// deviations. (The identification error grows with it: the controllers' estimate of the current
 /// is held from the touch; see the README's "Known limits".)
@@ -390,18 +423,22 @@ fn a_changing_current_is_felt_and_the_contact_holds() {
         "‖r‖ {} m against {still} m in still water",
         f("auv_deviation_max_m")
     );
-    let series = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
-    let mut lines = series.lines().filter(|l| !l.starts_with('#'));
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let (cx, cy) = (col("current_x_m_s"), col("current_y_m_s"));
-    let moved = lines
-        .map(|l| {
-            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap_or(0.0)).collect();
-            v[cx].hypot(v[cy])
-        })
-        .fold(0.0, f64::max);
-    assert!(moved > 0.02, "the current reached {moved} m/s");
+    // The logged current is the plant's: its steps between rows (10 ms apart) have the
+    // Gauss–Markov process's spread, σ √(1 − e^(−2Δt/τ)) on each axis (some 3,500 steps: within
+    // a few per cent), which a steady current, or a wrong σ or τ, would not.
+    let series = Series::read(&out);
+    let t = series.values("t_s");
+    let dt = t[1] - t[0];
+    for (axis, sigma) in [("x", 0.1), ("y", 0.1), ("z", 0.025)] {
+        let v = series.values(&format!("current_{axis}_m_s"));
+        let steps: Vec<f64> = v.windows(2).map(|w| w[1] - w[0]).collect();
+        let spread = (steps.iter().map(|d| d * d).sum::<f64>() / steps.len() as f64).sqrt();
+        let expected = sigma * (1.0 - (-2.0 * dt / 10.0f64).exp()).sqrt();
+        assert!(
+            (spread / expected - 1.0).abs() < 0.1,
+            "axis {axis}: steps of {spread} m/s against {expected}"
+        );
+    }
 }
 
 /// A stabilisation without integral action (`position_ki = 0`, a valid gain) holds the station
@@ -1141,15 +1178,11 @@ fn a_stiff_surface_pressed_in_the_approach_keeps_the_contact() {
         (sim["force_settled_mean_n"].as_f64().unwrap() - 60.0).abs() <= 1.0,
         "{sim}"
     );
-    let series = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
-    let mut lines = series.lines().filter(|l| !l.starts_with('#'));
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let (phase, f_set, f_id) = (col("phase"), col("f_set_n"), col("fk_id_n"));
-    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    let first_dwell = rows.iter().position(|r| r[phase] == "dwell").unwrap();
-    let pressed: f64 = rows[first_dwell - 1][f_id].parse().unwrap();
-    let asked: f64 = rows[first_dwell][f_set].parse().unwrap();
+    let series = Series::read(&out);
+    let phase = series.col("phase");
+    let first_dwell = series.rows.iter().position(|r| r[phase] == "dwell").unwrap();
+    let pressed = series.values("fk_id_n")[first_dwell - 1];
+    let asked = series.values("f_set_n")[first_dwell];
     assert!(
         pressed > 5.0 && asked >= 0.8 * pressed,
         "pressed {pressed} N, asked {asked} N"

@@ -882,17 +882,8 @@ impl<'a> Ascii<'a> {
 
 /// Reads a PLY file. Errors name `path` and the problem.
 pub(crate) fn read(path: &Path, faces: Faces) -> Result<Parsed> {
+    crate::config::regular_file(path, "a PLY file")?;
     let fail = |reason: String| Error::input(path.display(), reason);
-    let meta = std::fs::metadata(path).map_err(|e| match e.kind() {
-        std::io::ErrorKind::NotFound => fail("no such file".into()),
-        _ => fail(format!("cannot open: {e}")),
-    })?;
-    if meta.is_dir() {
-        return Err(fail("is a directory, not a PLY file".into()));
-    }
-    if !meta.is_file() {
-        return Err(fail("is not a regular file".into()));
-    }
     let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read: {e}")))?;
     parse(&bytes, faces).map_err(fail)
 }

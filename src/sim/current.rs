@@ -66,12 +66,13 @@ mod tests {
     use super::*;
 
     /// The sampled process has the Gauss–Markov process's statistics: the mean, the stationary
-    /// standard deviation of each axis, and the autocorrelation `e^{−lag/τ}`, at two control
-    /// rates (the exact discretisation does not depend on `dt`).
+    /// standard deviation of each axis, and the autocorrelation `e^{−lag/τ}`, at three
+    /// control rates: the exact discretisation does not depend on `dt`, even at `dt = τ` (where
+    /// an Euler step's spread would be off by a factor of √2 and its correlation zero).
     #[test]
     fn the_fluctuation_has_the_gauss_markov_statistics() {
         let (mean, sigma, tau) = ([0.3, -0.1, 0.0], [0.1, 0.05, 0.02], 2.0);
-        for dt in [1e-3, 1e-2] {
+        for dt in [1e-3, 1e-2, tau] {
             let mut c = SeaCurrent::new(mean, sigma, tau, 7);
             // Settle to the stationary spread, then sample 2000 correlation times.
             let settle = (10.0 * tau / dt) as usize;

@@ -187,12 +187,9 @@ impl Scenario {
     /// deviations with the mean stay within the fastest current, a positive correlation time.
     fn check_variation(&self) -> Result<()> {
         let key = "sim.scenario.current_variation_m_s";
-        let [sx, sy, sz] = self.current_variation_m_s;
-        require(
-            [sx, sy, sz].iter().all(|s| *s >= 0.0),
-            key,
-            "each axis's standard deviation must be finite and at least 0",
-        )?;
+        for s in self.current_variation_m_s {
+            non_negative(key, s)?;
+        }
         let widest: [f64; 3] =
             std::array::from_fn(|i| self.current_m_s[i].abs() + 4.0 * self.current_variation_m_s[i]);
         check_current(&format!("{key} (its mean and four standard deviations)"), widest)?;
@@ -579,10 +576,16 @@ pub fn simulate(
     };
     let mut static_id = static_in(&current);
     let (mut moved, mut relax) = (f64::INFINITY, HOLD_RELAXATION);
+    // The thrust the trim leaves unheld: zero where the loop integrates, and what it cannot
+    // hold at the station where it does not (an axis without integral gain). The trim has
+    // converged when it stops changing (the current may stop first: still water assumed).
+    let mut unheld: Option<Vector6<f64>> = None;
     for _ in 0..HOLD_ITERATIONS {
         let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
-        trim +=
-            (held - vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0)) * relax;
+        let left = held - vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0);
+        let trimmed = unheld.is_some_and(|u| (left - u).norm() < HOLD_TOLERANCE_N);
+        unheld = Some(left);
+        trim += left * relax;
         vc.trim(&trim);
         let next = vc.current(&ctrl.vehicle, &h.rotation);
         let step = (next - current).norm();
@@ -592,15 +595,15 @@ pub fn simulate(
         moved = step;
         current = next;
         static_id = static_in(&current);
-        if moved < HOLD_TOLERANCE_M_S {
+        if moved < HOLD_TOLERANCE_M_S && trimmed {
             break;
         }
     }
-    if current.norm() > MAX_CURRENT_M_S {
+    if current.norm().is_nan() || current.norm() > MAX_CURRENT_M_S {
         return Err(Error::input(
             "sim.controller_model.vehicle_damping_scale",
             format!(
-                "the controllers' estimate of the current at the station held before the run is {} m/s, faster than any sea: their vehicle's drag is too weak to read the current from the thrust (or set [sim.vehicle] current_filter_s = 0 to assume still water)",
+                "the controllers' estimate of the current at the station held before the run is {} m/s, faster than any sea: their vehicle's drag (the model's damping times this scale) is too weak to read the current from the thrust (or set [sim.vehicle] current_filter_s = 0 to assume still water)",
                 shown_to(current.norm(), 2)
             ),
         ));
@@ -968,6 +971,8 @@ const MAX_PERIODS: f64 = 1e8;
 const HOLD_ITERATIONS: usize = 200;
 const HOLD_TOLERANCE_M_S: f64 = 1e-9;
 const HOLD_RELAXATION: f64 = 0.5;
+/// The held station's trim has converged when the thrust it leaves unheld changes by less, N.
+const HOLD_TOLERANCE_N: f64 = 1e-6;
 
 /// What the sensors report of the station held before the run (no vision fix yet), with the
 /// accelerometers reading `specific_force`.
