@@ -12,7 +12,8 @@
 //! `e_x_m, e_y_m, e_z_m, e_m` (tool tip minus where the control system wants it, `P* + ΔP*`),
 //! `r_x_m, r_y_m, r_z_m, r_m` (vehicle minus its stabilisation point), `phi_rad, theta_rad,
 //! psi_rad` (the vehicle's attitude relative to its stabilisation attitude, roll–pitch–yaw),
-//! `current_x_m_s, current_y_m_s, current_z_m_s` (the sea current), `thrust1_n..`, `contact` (1 in contact).
+//! `current_x_m_s, current_y_m_s, current_z_m_s` (the sea current), `thrust1_n..`, `contact`
+//! (1 in contact).
 
 use super::Scenario;
 use crate::arm::JointVector;

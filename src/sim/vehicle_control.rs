@@ -357,8 +357,9 @@ mod tests {
 
     /// A stabilisation trimmed to hold its vehicle at rest against the drag of a current
     /// reports that current (world axes, the vehicle turned); without integral gain the loop
-    /// holds nothing at the station (its error zero) and reports still water. While the current is not learnt the estimate stays, in the world, as the thrust changes
-    /// and the vehicle turns; learnt, it follows the thrust. With `current_filter_s = 0` the
+    /// holds nothing at the station (its error zero) and reports still water. While the
+    /// current is not learnt the estimate stays, in the world, as the thrust changes and the
+    /// vehicle turns; learnt, it follows the thrust. With `current_filter_s = 0` the
     /// controllers assume still water.
     #[test]
     fn the_trimmed_thrust_gives_the_current_back() {
