@@ -908,6 +908,7 @@ mod tests {
             specific_force: -(arm.mount().rot.transpose() * base.gravity),
             position: Vector3::zeros(),
             position_time: 0.0,
+            water_flow: None,
         };
         let dt = 1e-3;
         let drive = Drive {
@@ -1119,6 +1120,7 @@ mod tests {
                 specific_force: -(arm.mount().rot.transpose() * base.gravity),
                 position: Vector3::zeros(),
                 position_time: 0.0,
+                water_flow: None,
             };
             let drive = Drive {
                 commanded: qdd,

@@ -550,6 +550,11 @@ pub fn simulate(
     let thruster_lag = units.iter().map(|u| u.time_constant).sum::<f64>() / units.len().max(1) as f64;
     let mut vc = VehicleControl::new(&cfg.vehicle, &h, thruster_lag);
     let mut nav = Navigation::new(&cfg.navigation, &cfg.sensors, h.translation.vector, g);
+    // A water track, if the vehicle has one, pinged while the station was held: the flow past
+    // the vehicle at rest is the current.
+    let pings = (cfg.navigation.levelling_s * cfg.sensors.water_track_rate_hz).round() as usize;
+    let flow_at_rest = h.rotation.inverse() * plant.system.current;
+    vc.settle_water_track(sensors.water_track_mean(&flow_at_rest, pings), &h.rotation);
 
     // The station was held before the run, in the current if there is one: the thrusters held
     // the vehicle and the arm at rest against their weight, buoyancy and the water (the
@@ -626,7 +631,7 @@ pub fn simulate(
             f_env_on_tool: Force::ZERO,
         },
     )?;
-    let mut truth_prev = truth_of(&plant.state, &first_eval, g);
+    let mut truth_prev = truth_of(&plant.state, &first_eval, g, &plant.system.current);
     // NS levelled the accelerometers while the station was held.
     let at_rest = Truth {
         specific_force: f_rest,
@@ -865,7 +870,7 @@ pub fn simulate(
             )
         })?;
         if let Some(acc) = &first_acc {
-            truth_prev = truth_of(&state, acc, g);
+            truth_prev = truth_of(&state, acc, g, &plant.system.current);
         }
         m_ez_true_prev = m_ez_true;
         // The trajectory's clock: it waits at the end of a dwell until the force has settled.
@@ -987,6 +992,7 @@ fn held_station(hover: &Hover, specific_force: Vector3<f64>) -> sensors::Measure
         specific_force,
         position: h.translation.vector,
         position_time: f64::NEG_INFINITY,
+        water_flow: None,
     }
 }
 
@@ -1013,8 +1019,9 @@ fn touch(
     (t_world_tool, state, jacobian, damping)
 }
 
-/// What the sensors read of `s` with the accelerations `acc` of its step (gravity `g`).
-fn truth_of(s: &State, acc: &Accelerations, g: f64) -> Truth {
+/// What the sensors read of `s` with the accelerations `acc` of its step (gravity `g`), in
+/// the sea current `current` (world).
+fn truth_of(s: &State, acc: &Accelerations, g: f64, current: &Vector3<f64>) -> Truth {
     let r = s.t_world_body.rotation;
     let v = Vector3::new(s.nu[0], s.nu[1], s.nu[2]);
     let omega = Vector3::new(s.nu[3], s.nu[4], s.nu[5]);
@@ -1028,6 +1035,7 @@ fn truth_of(s: &State, acc: &Accelerations, g: f64) -> Truth {
         omega,
         position: s.t_world_body.translation.vector,
         specific_force: a - r.inverse() * Vector3::new(0.0, 0.0, g),
+        water_flow: r.inverse() * current - v,
     }
 }
 

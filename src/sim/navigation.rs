@@ -291,6 +291,7 @@ mod tests {
             omega: Vector3::zeros(),
             position,
             specific_force: Vector3::new(0.0, 0.0, -9.81),
+            water_flow: Vector3::zeros(),
         }
     }
 

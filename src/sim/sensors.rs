@@ -7,7 +7,9 @@
 //! - accelerometers (the inertial unit at `C`'s origin): the specific force `a − g` in `C` axes,
 //!   with noise and a constant bias per axis (drawn once from the seed);
 //! - the vision system: the vehicle's position relative to the (fixed) object, delayed by
-//!   0.25 s, at a finite rate, with noise — the seed's delayed fix that eq. (18) works with.
+//!   0.25 s, at a finite rate, with noise — the seed's delayed fix that eq. (18) works with;
+//! - optionally (not in the seed's set, off by default) a Doppler velocity log's water track:
+//!   the water's velocity past the vehicle, `C` axes, at its ping rate, with noise per ping.
 //!
 //! The tachometers', torque sensors', gyros' and accelerometers' noise is given as a density
 //! (a datasheet's figure, e.g. an accelerometer's 64 µg/√Hz), white over the band the control
@@ -51,6 +53,10 @@ pub struct SensorConfig {
     pub vision_rate_hz: f64,
     /// Standard deviation of each coordinate of a fix, m.
     pub vision_noise_m: f64,
+    /// Ping rate of the water track (a DVL's water velocity past the vehicle), Hz; 0: none.
+    pub water_track_rate_hz: f64,
+    /// Standard deviation of each component of a water-track ping, m/s.
+    pub water_track_noise_m_s: f64,
 }
 
 impl Default for SensorConfig {
@@ -66,6 +72,8 @@ impl Default for SensorConfig {
             vision_delay_s: 0.25,
             vision_rate_hz: 10.0,
             vision_noise_m: 1e-3,
+            water_track_rate_hz: 0.0,
+            water_track_noise_m_s: 0.005,
         }
     }
 }
@@ -100,6 +108,8 @@ impl SensorConfig {
         )?;
         non_negative("sim.sensors.vision_delay_s", self.vision_delay_s)?;
         non_negative("sim.sensors.vision_noise_m", self.vision_noise_m)?;
+        non_negative("sim.sensors.water_track_rate_hz", self.water_track_rate_hz)?;
+        non_negative("sim.sensors.water_track_noise_m_s", self.water_track_noise_m_s)?;
         positive("sim.sensors.vision_rate_hz", self.vision_rate_hz)
     }
 
@@ -147,6 +157,9 @@ pub struct Truth {
     pub position: Vector3<f64>,
     /// Specific force at `C`'s origin (its acceleration minus gravity), `C` axes, m/s².
     pub specific_force: Vector3<f64>,
+    /// The water's velocity past `C`'s origin (the current less the vehicle's velocity),
+    /// `C` axes, m/s.
+    pub water_flow: Vector3<f64>,
 }
 
 /// What the controllers get.
@@ -168,6 +181,8 @@ pub struct Measurements {
     pub position: Vector3<f64>,
     /// The time the latest fix refers to (its measurement time minus the delay), s.
     pub position_time: f64,
+    /// The latest water-track ping, `C` axes, m/s (none without a water track).
+    pub water_flow: Option<Vector3<f64>>,
 }
 
 /// The sensors, with their noise source and the vision system's pipeline.
@@ -182,6 +197,9 @@ pub struct Sensors {
     fix: (f64, Vector3<f64>),
     next_fix: f64,
     accelerometer_bias: Vector3<f64>,
+    /// When the water track pings next, s, and its latest ping.
+    next_ping: f64,
+    ping: Option<Vector3<f64>>,
 }
 
 impl Sensors {
@@ -197,6 +215,8 @@ impl Sensors {
             fix: (-cfg.vision_delay_s, position0),
             next_fix: 0.0,
             accelerometer_bias: Vector3::zeros(),
+            next_ping: 0.0,
+            ping: None,
         };
         s.accelerometer_bias = Vector3::from_fn(|_, _| s.noise(cfg.accelerometer_bias_m_s2));
         s
@@ -221,6 +241,20 @@ impl Sensors {
     pub fn accelerometers_mean(&mut self, truth: &Truth, readings: usize) -> Vector3<f64> {
         let n = readings.max(1);
         (0..n).fold(Vector3::zeros(), |acc, _| acc + self.accelerometers(truth)) / n as f64
+    }
+
+    /// A water-track ping of the flow `flow` (`C` axes).
+    fn water_track(&mut self, flow: &Vector3<f64>) -> Vector3<f64> {
+        let sigma = self.cfg.water_track_noise_m_s;
+        flow + Vector3::from_fn(|_, _| self.noise(sigma))
+    }
+
+    /// The water track's mean over `pings` pings of the flow `flow` (`C` axes; at least one
+    /// ping), none without a water track: what it read at the station held before the run.
+    pub fn water_track_mean(&mut self, flow: &Vector3<f64>, pings: usize) -> Option<Vector3<f64>> {
+        let n = pings.max(1);
+        (self.cfg.water_track_rate_hz > 0.0)
+            .then(|| (0..n).fold(Vector3::zeros(), |acc, _| acc + self.water_track(flow)) / n as f64)
     }
 
     /// Reads every sensor at time `t`.
@@ -251,6 +285,11 @@ impl Sensors {
                 self.fix = (tp, p + n);
             }
         }
+        // Water track: a ping every 1/rate, without delay.
+        if c.water_track_rate_hz > 0.0 && t + 1e-12 >= self.next_ping {
+            self.next_ping += 1.0 / c.water_track_rate_hz;
+            self.ping = Some(self.water_track(&truth.water_flow));
+        }
         Measurements {
             q,
             qd,
@@ -260,6 +299,7 @@ impl Sensors {
             specific_force,
             position: self.fix.1,
             position_time: self.fix.0,
+            water_flow: self.ping,
         }
     }
 }
@@ -277,6 +317,7 @@ mod tests {
             omega: Vector3::zeros(),
             position: Vector3::new(x, 0.0, 0.0),
             specific_force: Vector3::zeros(),
+            water_flow: Vector3::new(0.1, -0.05, 0.02),
         }
     }
 
@@ -307,6 +348,33 @@ mod tests {
         // Between fixes the value is held (10 Hz).
         assert_eq!(seen[550].1, seen[599].1);
         assert!((seen[650].1 - 0.35).abs() < 1e-9);
+    }
+
+    /// The water track pings at its rate, without delay, the flow past the vehicle with its
+    /// noise, held between pings; without one, nothing.
+    #[test]
+    fn the_water_track_pings_the_flow_at_its_rate() {
+        let dt = 1e-3;
+        let none = Sensors::new(&SensorConfig::default(), 1, Vector3::zeros(), dt).read(0.0, &truth(0.0));
+        assert_eq!(none.water_flow, None);
+        let cfg = SensorConfig {
+            water_track_rate_hz: 10.0,
+            ..SensorConfig::default()
+        };
+        let mut s = Sensors::new(&cfg, 1, Vector3::zeros(), dt);
+        let flow = truth(0.0).water_flow;
+        let pings: Vec<Vector3<f64>> = (0..200_000)
+            .map(|k| s.read(k as f64 * dt, &truth(0.0)).water_flow.unwrap())
+            .collect();
+        // Held for 100 periods, then a new ping.
+        assert_eq!(pings[0], pings[99]);
+        assert_ne!(pings[99], pings[100]);
+        let per_ping: Vec<Vector3<f64>> = pings.iter().step_by(100).copied().collect();
+        let n = per_ping.len() as f64;
+        let mean = per_ping.iter().sum::<Vector3<f64>>() / n;
+        assert!((mean - flow).norm() < 4.0 * cfg.water_track_noise_m_s / n.sqrt() * 3f64.sqrt());
+        let sd = (per_ping.iter().map(|p| (p.x - mean.x).powi(2)).sum::<f64>() / n).sqrt();
+        assert!((sd / cfg.water_track_noise_m_s - 1.0).abs() < 0.1, "{sd}");
     }
 
     /// The standard deviations of the tachometer, torque sensor, gyro and accelerometer

@@ -27,7 +27,10 @@
 //! thrust then also holds the errors of the identified tool force (several newtons of the
 //! sampler's 100 N in soil), which it cannot tell from the water's drag; learnt through the
 //! soil run's contact, the estimate wandered by 8 cm/s and the identification's median error
-//! rose from 0.21 to 0.30 N·m.
+//! rose from 0.21 to 0.30 N·m. A vehicle with a water track (a DVL's: the water's velocity past
+//! it, `[sim.sensors] water_track_rate_hz`) measures the current instead, through the contact
+//! too: the pings turned into the world plus the vehicle's velocity, low-passed over
+//! `water_track_filter_s`.
 
 use super::navigation::Navigation;
 use super::sensors::Measurements;
@@ -62,6 +65,9 @@ pub struct VehicleControlConfig {
     /// Time constant of the low-pass on the closed loop's linear thrust from which the sea
     /// current is estimated, s (0: the controllers assume still water).
     pub current_filter_s: f64,
+    /// Time constant of the low-pass on the water track's pings (with
+    /// `[sim.sensors] water_track_rate_hz`), from which the current is then estimated, s.
+    pub water_track_filter_s: f64,
 }
 
 /// The position gains are those a 0.25 s old feedback did not allow: on the navigation's
@@ -78,6 +84,7 @@ impl Default for VehicleControlConfig {
             attitude_kd: 300.0,
             open_loop_lag_s: 0.05,
             current_filter_s: 5.0,
+            water_track_filter_s: 0.1,
         }
     }
 }
@@ -95,7 +102,8 @@ impl VehicleControlConfig {
         non_negative("sim.vehicle.attitude_ki", self.attitude_ki)?;
         non_negative("sim.vehicle.attitude_kd", self.attitude_kd)?;
         non_negative("sim.vehicle.open_loop_lag_s", self.open_loop_lag_s)?;
-        non_negative("sim.vehicle.current_filter_s", self.current_filter_s)
+        non_negative("sim.vehicle.current_filter_s", self.current_filter_s)?;
+        non_negative("sim.vehicle.water_track_filter_s", self.water_track_filter_s)
     }
 }
 
@@ -115,6 +123,8 @@ pub struct VehicleControl {
     learning: bool,
     /// The current's estimate (world), m/s.
     estimate: Vector3<f64>,
+    /// The water track's pings in the world, low-passed (none without a water track), m/s.
+    flow: Option<Vector3<f64>>,
 }
 
 impl VehicleControl {
@@ -132,6 +142,7 @@ impl VehicleControl {
             holding: Vector3::zeros(),
             learning: true,
             estimate: Vector3::zeros(),
+            flow: None,
         }
     }
 
@@ -154,6 +165,12 @@ impl VehicleControl {
         };
     }
 
+    /// The water track's reading at the station held before the run (`C` axes, the vehicle at
+    /// `attitude`), where its low-pass had converged; none without a water track.
+    pub fn settle_water_track(&mut self, flow: Option<Vector3<f64>>, attitude: &UnitQuaternion<f64>) {
+        self.flow = flow.map(|f| attitude * f);
+    }
+
     /// Whether the current is learnt from the thrust from now on (`true` at the start; the
     /// simulation learns it until the ICU judges the tool has touched), or the estimate held.
     pub fn learn_current(&mut self, on: bool) {
@@ -166,13 +183,19 @@ impl VehicleControl {
     /// linear thrust of the closed loop ([`Body::velocity_against_drag`]). It is the flow past
     /// the vehicle on average, as the IDP wants it: the IDP's base has no linear velocity of
     /// its own (the controllers feed it the gyros' rates alone). While the current is learnt
-    /// the estimate follows the thrust; held, it stays as it was, in the world. Still water
-    /// with `current_filter_s = 0` or a vehicle without Fossen damping.
+    /// the estimate follows the thrust; held, it stays as it was, in the world. With a water
+    /// track (`[sim.sensors] water_track_rate_hz`) it is the track's pings instead, turned into
+    /// the world and low-passed over `water_track_filter_s`, through the contact too (the
+    /// track does not feel the tool). Still water with `current_filter_s = 0` or a vehicle
+    /// without Fossen damping (and no water track).
     pub fn current(&mut self, vehicle: &Body, attitude: &UnitQuaternion<f64>) -> Vector3<f64> {
         if self.cfg.current_filter_s <= 0.0 {
             return Vector3::zeros();
         }
-        if self.learning {
+        if let Some(flow) = self.flow {
+            // Measured, through the contact too: the water track does not see the tool.
+            self.estimate = flow;
+        } else if self.learning {
             self.estimate = vehicle
                 .velocity_against_drag(&self.holding)
                 .map_or_else(Vector3::zeros, |u| -(attitude * u));
@@ -216,6 +239,12 @@ impl VehicleControl {
     ) -> Vector6<f64> {
         let open_loop = self.lead(open_loop, dt);
         let c = &self.cfg;
+        if let (Some(flow), Some(ping)) = (self.flow.as_mut(), m.water_flow) {
+            // The water's velocity over the ground: the flow past the vehicle plus the
+            // vehicle's own velocity (the IDP takes the vehicle's linear motion as none).
+            let water = m.attitude * ping + nav.velocity;
+            *flow += (water - *flow) * lag_gain(dt, c.water_track_filter_s);
+        }
         let r = m.attitude;
         let e_pos = r.inverse() * (self.hover.translation.vector - nav.position);
         let e_att = (r.inverse() * self.hover.rotation).scaled_axis();
@@ -259,6 +288,7 @@ mod tests {
             specific_force: attitude.inverse() * Vector3::new(0.0, 0.0, -g),
             position,
             position_time: 0.0,
+            water_flow: None,
         }
     }
 
@@ -417,5 +447,38 @@ mod tests {
         };
         assert_eq!(trimmed(&still).current(&vehicle, &attitude), Vector3::zeros());
         assert_eq!(vc.current(&vehicle, &attitude), at_rest);
+    }
+
+    /// With a water track the estimate is the track's: settled at the station to the flow it
+    /// read, then following its pings (the flow past the vehicle turned into the world, plus
+    /// the vehicle's velocity) through the filter's lag — held from the touch or not, since the
+    /// track does not feel the tool.
+    #[test]
+    fn a_water_track_gives_the_current_through_the_contact() {
+        let vehicle = crate::multibody::Multibody::new(&crate::model::UvmsModel::default())
+            .unwrap()
+            .vehicle;
+        let attitude = UnitQuaternion::from_euler_angles(0.05, -0.03, 1.2);
+        let hover = Isometry3::from_parts(Vector3::zeros().into(), attitude);
+        let cfg = VehicleControlConfig::default();
+        let mut vc = VehicleControl::new(&cfg, &hover, 0.2);
+        let current = Vector3::new(0.3, -0.2, 0.05);
+        vc.settle_water_track(Some(attitude.inverse() * current), &attitude);
+        assert!((vc.current(&vehicle, &attitude) - current).norm() < 1e-12);
+        // The water turns to another current, the vehicle at rest; the tool has touched.
+        vc.learn_current(false);
+        let turned = Vector3::new(-0.1, 0.2, 0.0);
+        let mut m = read_at_rest(attitude, Vector3::zeros(), 9.81);
+        m.water_flow = Some(attitude.inverse() * turned);
+        let nav = Navigation::new(&Default::default(), &Default::default(), Vector3::zeros(), 9.81);
+        let dt = 1e-3;
+        let steps = (cfg.water_track_filter_s / dt).round() as usize;
+        for _ in 0..steps {
+            vc.wrench(&m, &nav, &vehicle, 9.81, &Force::ZERO, dt);
+        }
+        // One time constant: 1 − 1/e of the way.
+        let got = vc.current(&vehicle, &attitude);
+        let expected = turned + (current - turned) * (-1.0f64).exp();
+        assert!((got - expected).norm() < 1e-9, "{got} against {expected}");
     }
 }
