@@ -443,7 +443,7 @@ fn a_changing_current_is_felt_and_the_contact_holds() {
 
 /// A water track (a DVL's, `[sim.sensors] water_track_rate_hz`) measures the current the
 /// thrust-based estimate, held from the touch, cannot follow: in a current fluctuating by
-/// 0.1 m/s the identification's 95 % point comes back near still water's (0.31 against 0.56 N·m
+/// 0.1 m/s the identification's 95 % point comes back near still water's (0.32 against 0.56 N·m
 /// on seed 1; 0.29-0.31 in still water), and the contact keeps the seed's figures.
 #[test]
 fn a_water_track_follows_a_changing_current() {

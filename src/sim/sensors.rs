@@ -17,17 +17,20 @@
 //! period, the usual convention of inertial-sensor models), and a faster control rate
 //! reads the same sensors more often, each reading noisier. The attitude's noise (an attitude
 //! reference's output) and the vision fixes' are per reading. Every random draw comes from one
-//! `ChaCha8Rng` seeded from the configuration.
+//! `ChaCha8Rng` seeded from the configuration, the water track's from a stream of its own.
 
 use crate::arm::JointVector;
 use crate::config::{non_negative, positive};
 use crate::error::Result;
-use crate::synth::random::NormalPairs;
+use crate::synth::random::{NormalPairs, stream};
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
+
+/// The random stream of the water track's noise (apart from the other sensors').
+const WATER_TRACK_STREAM: u64 = 0x4456_4c00; // "DVL"
 
 /// Sensor parameters (`[sim.sensors]`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -197,9 +200,11 @@ pub struct Sensors {
     fix: (f64, Vector3<f64>),
     next_fix: f64,
     accelerometer_bias: Vector3<f64>,
-    /// When the water track pings next, s, and its latest ping.
+    /// When the water track pings next, s, its latest ping, and its own noise stream (so that
+    /// fitting one leaves every other sensor's draws as they were).
     next_ping: f64,
     ping: Option<Vector3<f64>>,
+    ping_noise: NormalPairs,
 }
 
 impl Sensors {
@@ -217,6 +222,7 @@ impl Sensors {
             accelerometer_bias: Vector3::zeros(),
             next_ping: 0.0,
             ping: None,
+            ping_noise: NormalPairs::new(stream(seed, WATER_TRACK_STREAM, 0)),
         };
         s.accelerometer_bias = Vector3::from_fn(|_, _| s.noise(cfg.accelerometer_bias_m_s2));
         s
@@ -246,7 +252,7 @@ impl Sensors {
     /// A water-track ping of the flow `flow` (`C` axes).
     fn water_track(&mut self, flow: &Vector3<f64>) -> Vector3<f64> {
         let sigma = self.cfg.water_track_noise_m_s;
-        flow + Vector3::from_fn(|_, _| self.noise(sigma))
+        flow + Vector3::from_fn(|_, _| sigma * self.ping_noise.sample())
     }
 
     /// The water track's mean over `pings` pings of the flow `flow` (`C` axes; at least one

@@ -66,7 +66,8 @@ pub struct VehicleControlConfig {
     /// current is estimated, s (0: the controllers assume still water).
     pub current_filter_s: f64,
     /// Time constant of the low-pass on the water track's pings (with
-    /// `[sim.sensors] water_track_rate_hz`), from which the current is then estimated, s.
+    /// `[sim.sensors] water_track_rate_hz`), from which the current is then estimated, s
+    /// (`current_filter_s = 0` assumes still water and leaves the track unused).
     pub water_track_filter_s: f64,
 }
 
@@ -186,8 +187,8 @@ impl VehicleControl {
     /// the estimate follows the thrust; held, it stays as it was, in the world. With a water
     /// track (`[sim.sensors] water_track_rate_hz`) it is the track's pings instead, turned into
     /// the world and low-passed over `water_track_filter_s`, through the contact too (the
-    /// track does not feel the tool). Still water with `current_filter_s = 0` or a vehicle
-    /// without Fossen damping (and no water track).
+    /// track does not feel the tool). Still water with `current_filter_s = 0` (the water
+    /// track unused too) or, without a water track, a vehicle without Fossen damping.
     pub fn current(&mut self, vehicle: &Body, attitude: &UnitQuaternion<f64>) -> Vector3<f64> {
         if self.cfg.current_filter_s <= 0.0 {
             return Vector3::zeros();
@@ -465,12 +466,16 @@ mod tests {
         let current = Vector3::new(0.3, -0.2, 0.05);
         vc.settle_water_track(Some(attitude.inverse() * current), &attitude);
         assert!((vc.current(&vehicle, &attitude) - current).norm() < 1e-12);
-        // The water turns to another current, the vehicle at rest; the tool has touched.
+        // The water turns to another current; the tool has touched.
         vc.learn_current(false);
         let turned = Vector3::new(-0.1, 0.2, 0.0);
         let mut m = read_at_rest(attitude, Vector3::zeros(), 9.81);
-        m.water_flow = Some(attitude.inverse() * turned);
-        let nav = Navigation::new(&Default::default(), &Default::default(), Vector3::zeros(), 9.81);
+        // The vehicle moving at `v`: the track reads the flow past it, `turned − v`, and the
+        // estimate is the water's velocity over the ground, `turned`.
+        let mut nav = Navigation::new(&Default::default(), &Default::default(), Vector3::zeros(), 9.81);
+        let v = Vector3::new(0.05, -0.02, 0.01);
+        nav.velocity = v;
+        m.water_flow = Some(attitude.inverse() * (turned - v));
         let dt = 1e-3;
         let steps = (cfg.water_track_filter_s / dt).round() as usize;
         for _ in 0..steps {
