@@ -22,20 +22,24 @@ const STREAM: u64 = 0x4355_5252; // "CURR"
 #[derive(Debug)]
 pub struct SeaCurrent {
     mean: Vector3<f64>,
-    sigma: Vector3<f64>,
-    correlation_s: f64,
+    /// Each axis's standard deviation times `√(1 − a²)`: a step's spread.
+    step_sigma: Vector3<f64>,
+    /// `a = e^{−dt/τ}`.
+    a: f64,
     now: Vector3<f64>,
     noise: NormalPairs,
 }
 
 impl SeaCurrent {
     /// A current of mean `mean` and per-axis stationary standard deviation `sigma` (m/s, world),
-    /// correlated over `correlation_s` (s), its fluctuation drawn from `seed`.
-    pub fn new(mean: [f64; 3], sigma: [f64; 3], correlation_s: f64, seed: u64) -> Self {
+    /// correlated over `correlation_s` (s), stepped every `dt` (s), its fluctuation drawn from
+    /// `seed`.
+    pub fn new(mean: [f64; 3], sigma: [f64; 3], correlation_s: f64, dt: f64, seed: u64) -> Self {
+        let a = (-dt / correlation_s).exp();
         SeaCurrent {
             mean: mean.into(),
-            sigma: sigma.into(),
-            correlation_s,
+            step_sigma: Vector3::from(sigma) * (1.0 - a * a).sqrt(),
+            a,
             now: mean.into(),
             noise: NormalPairs::new(stream(seed, STREAM, 0)),
         }
@@ -46,15 +50,13 @@ impl SeaCurrent {
         self.now
     }
 
-    /// Advances the current by `dt` and returns it. A steady current (no variation) draws
+    /// Advances the current by a period and returns it. A steady current (no variation) draws
     /// nothing and stays exactly at its mean.
-    pub fn step(&mut self, dt: f64) -> Vector3<f64> {
-        if self.sigma != Vector3::zeros() {
-            let a = (-dt / self.correlation_s).exp();
-            let spread = (1.0 - a * a).sqrt();
+    pub fn step(&mut self) -> Vector3<f64> {
+        if self.step_sigma != Vector3::zeros() {
             for i in 0..3 {
                 let xi = self.noise.sample();
-                self.now[i] = self.mean[i] + a * (self.now[i] - self.mean[i]) + self.sigma[i] * spread * xi;
+                self.now[i] = self.mean[i] + self.a * (self.now[i] - self.mean[i]) + self.step_sigma[i] * xi;
             }
         }
         self.now
@@ -73,14 +75,14 @@ mod tests {
     fn the_fluctuation_has_the_gauss_markov_statistics() {
         let (mean, sigma, tau) = ([0.3, -0.1, 0.0], [0.1, 0.05, 0.02], 2.0);
         for dt in [1e-3, 1e-2, tau] {
-            let mut c = SeaCurrent::new(mean, sigma, tau, 7);
+            let mut c = SeaCurrent::new(mean, sigma, tau, dt, 7);
             // Settle to the stationary spread, then sample 2000 correlation times.
             let settle = (10.0 * tau / dt) as usize;
             for _ in 0..settle {
-                c.step(dt);
+                c.step();
             }
             let n = (2000.0 * tau / dt) as usize;
-            let v: Vec<Vector3<f64>> = (0..n).map(|_| c.step(dt)).collect();
+            let v: Vec<Vector3<f64>> = (0..n).map(|_| c.step()).collect();
             let lag = (tau / dt) as usize;
             for i in 0..3 {
                 let x: Vec<f64> = v.iter().map(|v| v[i] - mean[i]).collect();
@@ -105,14 +107,14 @@ mod tests {
     /// for the same seed and differs for another.
     #[test]
     fn a_steady_current_is_its_mean_and_the_draws_are_seeded() {
-        let mut steady = SeaCurrent::new([0.2, 0.1, -0.05], [0.0; 3], 10.0, 1);
+        let mut steady = SeaCurrent::new([0.2, 0.1, -0.05], [0.0; 3], 10.0, 1e-3, 1);
         for _ in 0..1000 {
-            assert_eq!(steady.step(1e-3), Vector3::new(0.2, 0.1, -0.05));
+            assert_eq!(steady.step(), Vector3::new(0.2, 0.1, -0.05));
         }
         let run = |seed| {
-            let mut c = SeaCurrent::new([0.0; 3], [0.1; 3], 10.0, seed);
+            let mut c = SeaCurrent::new([0.0; 3], [0.1; 3], 10.0, 1e-3, seed);
             assert_eq!(c.now(), Vector3::zeros());
-            (0..1000).map(|_| c.step(1e-3)).last().unwrap()
+            (0..1000).map(|_| c.step()).last().unwrap()
         };
         assert_eq!(run(1), run(1));
         assert_ne!(run(1), run(2));

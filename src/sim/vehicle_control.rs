@@ -386,6 +386,14 @@ mod tests {
         );
     }
 
+    /// The default model's vehicle (the controllers' own) and an attitude turned on every axis.
+    fn vehicle_turned() -> (Body, UnitQuaternion<f64>) {
+        let vehicle = crate::multibody::Multibody::new(&crate::model::UvmsModel::default())
+            .unwrap()
+            .vehicle;
+        (vehicle, UnitQuaternion::from_euler_angles(0.05, -0.03, 1.2))
+    }
+
     /// A stabilisation trimmed to hold its vehicle at rest against the drag of a current
     /// reports that current (world axes, the vehicle turned); without integral gain the loop
     /// holds nothing at the station (its error zero) and reports still water. While the
@@ -395,10 +403,7 @@ mod tests {
     #[test]
     fn the_trimmed_thrust_gives_the_current_back() {
         use crate::spatial_algebra::Motion;
-        let vehicle = crate::multibody::Multibody::new(&crate::model::UvmsModel::default())
-            .unwrap()
-            .vehicle;
-        let attitude = UnitQuaternion::from_euler_angles(0.05, -0.03, 1.2);
+        let (vehicle, attitude) = vehicle_turned();
         let current = Vector3::new(0.3, -0.2, 0.05);
         // At rest the vehicle moves through the water at `−c`, and the thrust holds the drag.
         let drag = vehicle.drag_on_body(&Motion::new(attitude.inverse() * -current, Vector3::zeros()));
@@ -456,10 +461,7 @@ mod tests {
     /// track does not feel the tool.
     #[test]
     fn a_water_track_gives_the_current_through_the_contact() {
-        let vehicle = crate::multibody::Multibody::new(&crate::model::UvmsModel::default())
-            .unwrap()
-            .vehicle;
-        let attitude = UnitQuaternion::from_euler_angles(0.05, -0.03, 1.2);
+        let (vehicle, attitude) = vehicle_turned();
         let hover = Isometry3::from_parts(Vector3::zeros().into(), attitude);
         let cfg = VehicleControlConfig::default();
         let mut vc = VehicleControl::new(&cfg, &hover, 0.2);
