@@ -6,13 +6,35 @@
 //! other's half-written files, and no existing file is truncated. A command declares the
 //! products it may write when it creates the folder, and one whose product is one of the run's
 //! inputs is refused then, before anything is written: inputs are never overwritten, and a run
-//! is not refused halfway.
+//! is not refused halfway. A run interrupted by a signal removes the temporary files it is
+//! writing before it exits ([`remove_unfinished`]).
 
 use crate::error::{Error, Result};
 use serde::Serialize;
 use std::fs;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard, PoisonError};
+
+/// The temporary files this process is writing now. A file is added as it is created and taken
+/// off as it is renamed into place or removed, each under the lock.
+static UNFINISHED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn unfinished() -> MutexGuard<'static, Vec<PathBuf>> {
+    // A writer that panicked holding the lock left the list as it was: still the truth.
+    UNFINISHED.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Removes the temporary files this process is writing, for a run interrupted by a signal,
+/// and returns the lock on their list: held until the process exits, no file is created or
+/// renamed into place after it. A product already renamed is complete and stays.
+pub fn remove_unfinished() -> MutexGuard<'static, Vec<PathBuf>> {
+    let mut list = unfinished();
+    for tmp in list.drain(..) {
+        let _ = fs::remove_file(tmp);
+    }
+    list
+}
 
 /// A folder the run writes its products into.
 #[derive(Debug, Clone)]
@@ -91,21 +113,26 @@ impl OutDir {
         }
         let tmp = self.dir.join(temporary(name));
         let stage = format!("write {}", target.display());
-        let mut created = false;
-        let result = (|| {
-            // Never truncate an existing file, should one have the temporary name.
+        // Never truncate an existing file, should one have the temporary name.
+        let file = {
+            let mut list = unfinished();
             let file = fs::File::create_new(&tmp).map_err(|e| Error::failed(&stage, e))?;
-            created = true;
+            list.push(tmp.clone());
+            file
+        };
+        let result = (|| {
             let mut w = BufWriter::new(file);
             fill(&mut w)?;
             w.flush().map_err(|e| Error::failed(&stage, e))?;
             let file = w.into_inner().map_err(|e| Error::failed(&stage, e.error()))?;
-            file.sync_all().map_err(|e| Error::failed(&stage, e))?;
-            fs::rename(&tmp, &target).map_err(|e| Error::failed(&stage, e))
+            file.sync_all().map_err(|e| Error::failed(&stage, e))
         })();
-        if result.is_err() && created {
+        let mut list = unfinished();
+        let result = result.and_then(|()| fs::rename(&tmp, &target).map_err(|e| Error::failed(&stage, e)));
+        if result.is_err() {
             let _ = fs::remove_file(&tmp);
         }
+        list.retain(|p| *p != tmp);
         result.map(|()| target)
     }
 
