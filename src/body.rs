@@ -5,14 +5,21 @@
 //! equations.md §3) is
 //!
 //! ```text
-//! F = M_RB a + v ×* (M_RB v) + M_A a_r + v_r ×* (M_A v_r) + D(v_r) + g
-//! v_r = v − [c; 0],   a_r = a + [ω × c; 0]
+//! F = M_RB a + v ×* (M_RB v) + M_A a_r + v_r ×* (M_A v_r) + D(v_r) + g − f_FK
+//! v_r = v − [c; 0],   a_r = a + [ω × c − ċ; 0]
 //! g = −[(m − ρ∇) g_b ; (m r_g − ρ∇ r_b) × g_b]
+//! f_FK = [ρ∇ ċ ; ρ∇ r_b × ċ]
 //! ```
 //!
-//! with `c` the water's velocity and `g_b` the gravity vector, both in body axes. With no current
-//! the two inertias act as one (`M_RB + M_A`), Kirchhoff's equations of a body in an ideal
-//! fluid; `v ×* (M v)` is Fossen's `C(ν)ν` (Fossen 2011, Thm 3.2).
+//! with `c` the water's velocity, `ċ` its acceleration in the world (a current that changes)
+//! and `g_b` the gravity vector, all in body axes. With no current the two inertias act as one
+//! (`M_RB + M_A`), Kirchhoff's equations of a body in an ideal fluid; `v ×* (M v)` is Fossen's
+//! `C(ν)ν` (Fossen 2011, Thm 3.2). A uniform flow that accelerates pushes the body twice: the
+//! pressure gradient that accelerates the water pushes its displaced volume as buoyancy does
+//! (the Froude–Krylov force `f_FK`, at the centre of buoyancy), and the added mass answers the
+//! acceleration relative to the water (Fossen's `M_A ν̇_r`); a neutrally buoyant body whose
+//! centres coincide is carried along with the water (Morison's inertia force `(ρ∇ + M_A) ċ`,
+//! DNV-RP-C205 ch. 6).
 //!
 //! Drag models: Fossen's diagonal linear + quadratic damping at a point (the vehicle), or
 //! strip theory along a cylinder (the links): each of N strips feels the cross-flow drag
@@ -150,39 +157,78 @@ pub struct Body {
     pub net_mass: f64,
     /// `m r_g − ρ∇ r_b`, kg·m: the moment of the weight in water is this × g.
     pub net_first_moment: Vector3<f64>,
+    /// The displaced water, `ρ∇` and `ρ∇ r_b`: what the Froude–Krylov force pushes.
+    pub displaced: MassMoment,
     /// The drag.
     pub drag: Drag,
 }
 
+/// A mass and its first moment about the body frame's origin (`m` and `m r`, kg and kg·m):
+/// the body's own, or the water it displaces.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MassMoment {
+    /// Mass, kg.
+    pub mass: f64,
+    /// Mass times the position of its centre, kg·m.
+    pub first_moment: Vector3<f64>,
+}
+
+impl MassMoment {
+    /// Nothing.
+    pub const ZERO: MassMoment = MassMoment {
+        mass: 0.0,
+        first_moment: Vector3::new(0.0, 0.0, 0.0),
+    };
+
+    /// A mass `mass` centred at `center`.
+    pub fn at(mass: f64, center: &Vector3<f64>) -> Self {
+        MassMoment {
+            mass,
+            first_moment: center * mass,
+        }
+    }
+}
+
 impl Body {
-    /// A body from its parts; `total` is their sum.
+    /// A body from its parts: `weight` is the body's mass and its first moment (those of
+    /// `rigid`), `displaced` the water's it displaces; `total` is the inertias' sum.
     pub fn new(
         rigid: Inertia,
         added: Inertia,
-        net_mass: f64,
-        net_first_moment: Vector3<f64>,
+        weight: MassMoment,
+        displaced: MassMoment,
         drag: Drag,
     ) -> Self {
         Body {
             rigid,
             added,
             total: rigid + added,
-            net_mass,
-            net_first_moment,
+            net_mass: weight.mass - displaced.mass,
+            net_first_moment: weight.first_moment - displaced.first_moment,
+            displaced,
             drag,
         }
     }
 
     /// The wrench the body needs (left-hand side of its equation of motion, see the module
-    /// docs) for velocity `v`, acceleration `a`, gravity `g` (m/s²) and water velocity
-    /// `current` (m/s), all in body axes.
+    /// docs) for velocity `v`, acceleration `a`, gravity `g` (m/s²), water velocity `current`
+    /// (m/s) and the water's acceleration `current_rate` (m/s², the world's rate of the
+    /// current), all in body axes.
     #[inline]
-    pub fn wrench(&self, v: &Motion, a: &Motion, g: &Vector3<f64>, current: &Vector3<f64>) -> Force {
-        let mut f = if current.x == 0.0 && current.y == 0.0 && current.z == 0.0 {
+    pub fn wrench(
+        &self,
+        v: &Motion,
+        a: &Motion,
+        g: &Vector3<f64>,
+        current: &Vector3<f64>,
+        current_rate: &Vector3<f64>,
+    ) -> Force {
+        let still_rate = *current_rate == Vector3::zeros();
+        let mut f = if *current == Vector3::zeros() && still_rate {
             self.total.mul(a) + v.cross_force(&self.total.mul(v))
         } else {
             let vr = Motion::new(v.lin - current, v.ang);
-            let ar = Motion::new(a.lin + v.ang.cross(current), a.ang);
+            let ar = Motion::new(a.lin + v.ang.cross(current) - current_rate, a.ang);
             self.rigid.mul(a)
                 + v.cross_force(&self.rigid.mul(v))
                 + self.added.mul(&ar)
@@ -192,6 +238,11 @@ impl Body {
         // Gravity and buoyancy act on the body; the equation's left side carries their negative.
         f.lin -= g * self.net_mass;
         f.ang -= self.net_first_moment.cross(g);
+        if !still_rate {
+            // The Froude–Krylov force, as buoyancy is for gravity.
+            f.lin -= current_rate * self.displaced.mass;
+            f.ang -= self.displaced.first_moment.cross(current_rate);
+        }
         f
     }
 
@@ -344,15 +395,57 @@ mod tests {
             linear: Vector6::repeat(3.0),
             quadratic: Vector6::repeat(5.0),
         };
-        let b = Body::new(i, added, 0.0, Vector3::zeros(), drag);
+        let b = Body::new(i, added, MassMoment::ZERO, MassMoment::ZERO, drag);
         let c = Vector3::new(0.3, -0.1, 0.2);
         let f = b.wrench(
             &Motion::new(c, Vector3::zeros()),
             &Motion::ZERO,
             &Vector3::zeros(),
             &c,
+            &Vector3::zeros(),
         );
         assert!(f.to_vector6().norm() < 1e-12);
+    }
+
+    /// In water that accelerates, a body at rest needs Morison's inertia force against it,
+    /// `(ρ∇ + M_A) ċ` at the centre of buoyancy; a neutrally buoyant body whose centres
+    /// coincide, moving with the water and accelerating with it, needs none (it is carried).
+    #[test]
+    fn accelerating_water_pushes_the_displaced_water_and_the_added_mass() {
+        let center = Vector3::new(0.1, -0.05, 0.2);
+        let i = Inertia::rigid(3.0, &center, &(Matrix3::identity() * 0.2));
+        let added = Inertia::rigid(1.5, &center, &(Matrix3::identity() * 0.05));
+        let drag = Drag::Fossen {
+            origin: Vector3::zeros(),
+            linear: Vector6::repeat(3.0),
+            quadratic: Vector6::repeat(5.0),
+        };
+        let (weight, water) = (MassMoment::at(3.0, &center), MassMoment::at(3.0, &center));
+        let body = Body::new(i, added, weight, water, drag);
+        let (g, c, rate) = (
+            Vector3::new(0.0, 0.0, 9.81),
+            Vector3::new(0.2, 0.1, -0.1),
+            Vector3::new(0.3, -0.2, 0.5),
+        );
+        let carried = body.wrench(
+            &Motion::new(c, Vector3::zeros()),
+            &Motion::new(rate, Vector3::zeros()),
+            &g,
+            &c,
+            &rate,
+        );
+        assert!(carried.to_vector6().norm() < 1e-12, "{:?}", carried);
+        // Held still in still-moving water: the force on it is (ρ∇ + M_A) ċ at the centre.
+        let held = body.wrench(
+            &Motion::ZERO,
+            &Motion::ZERO,
+            &Vector3::zeros(),
+            &Vector3::zeros(),
+            &rate,
+        );
+        let push = rate * (3.0 + 1.5);
+        assert!((held.lin + push).norm() < 1e-12, "{:?}", held);
+        assert!((held.ang + center.cross(&push)).norm() < 1e-12, "{:?}", held);
     }
 
     /// The velocity found for a holding force meets, translating, exactly that drag — with
@@ -365,7 +458,13 @@ mod tests {
                 linear: Vector6::new(linear, 2.0 * linear, 10.0 * linear, 1.0, 1.0, 1.0),
                 quadratic: Vector6::new(quadratic, 1.3 * quadratic, 2.4 * quadratic, 1.0, 1.0, 1.0),
             };
-            Body::new(Inertia::ZERO, Inertia::ZERO, 0.0, Vector3::zeros(), drag)
+            Body::new(
+                Inertia::ZERO,
+                Inertia::ZERO,
+                MassMoment::ZERO,
+                MassMoment::ZERO,
+                drag,
+            )
         };
         for (linear, quadratic) in [(16.0, 221.0), (0.0, 221.0), (16.0, 0.0)] {
             let b = body(linear, quadratic);
@@ -383,7 +482,13 @@ mod tests {
             }
         }
         assert!(body(0.0, 0.0).velocity_against_drag(&Vector3::x()).is_none());
-        let cylinder = Body::new(Inertia::ZERO, Inertia::ZERO, 0.0, Vector3::zeros(), Drag::None);
+        let cylinder = Body::new(
+            Inertia::ZERO,
+            Inertia::ZERO,
+            MassMoment::ZERO,
+            MassMoment::ZERO,
+            Drag::None,
+        );
         assert!(cylinder.velocity_against_drag(&Vector3::x()).is_none());
     }
 }

@@ -13,7 +13,8 @@
 //!   rotor inertias `G² Jm` on the joint diagonal. `H` depends on `q` only (everything is in `C`).
 //! - `c` by the recursive Newton–Euler algorithm with `ζ̇ = 0`: the vehicle's and the links'
 //!   Coriolis terms (`V ×* M V`), drag on the velocity relative to the current, gravity and
-//!   buoyancy, and the environment's wrench on the tool.
+//!   buoyancy, a changing current's push on the displaced water and the added mass (see
+//!   [`crate::body`]), and the environment's wrench on the tool.
 //! - `ζ̇` by Cholesky.
 //!
 //! The kinematic rates are `ṗ = R ν_1`, `q̇_uat = ½ q_uat ⊗ [0; ν_2]` and `q̇`. Units: SI;
@@ -131,14 +132,17 @@ pub struct Multibody {
     pub gravity: f64,
     /// Water velocity in the world, m/s.
     pub current: Vector3<f64>,
+    /// The water's acceleration in the world (the rate of a changing current), m/s².
+    pub current_rate: Vector3<f64>,
 }
 
 /// Everything one evaluation needs, computed once from the configuration.
 struct Kinematics {
     xs: LinkTransforms,
-    /// Gravity and current in `C`.
+    /// Gravity, the current and its rate in `C`.
     g_body: Vector3<f64>,
     c_body: Vector3<f64>,
+    c_rate_body: Vector3<f64>,
 }
 
 impl Multibody {
@@ -154,6 +158,7 @@ impl Multibody {
             vehicle: vehicle_body(&model.vehicle, &model.environment),
             gravity: model.environment.gravity,
             current: crate::model::vector3(&model.environment.current),
+            current_rate: Vector3::zeros(),
         })
     }
 
@@ -163,6 +168,7 @@ impl Multibody {
             xs: self.arm.transforms(&s.q),
             g_body: r_inv * Vector3::new(0.0, 0.0, self.gravity),
             c_body: r_inv * self.current,
+            c_rate_body: r_inv * self.current_rate,
         }
     }
 
@@ -209,12 +215,15 @@ impl Multibody {
             acceleration: self.arm.mount().motion(&nu_dot),
             gravity: self.arm.mount().rot * k.g_body,
             current: self.arm.mount().rot * k.c_body,
+            current_rate: self.arm.mount().rot * k.c_rate_body,
         };
         let f6 = self.tool_wrench(s, &k.xs, f_env_on_tool);
         let mut tau = JointVector::zeros();
         let qdd = zeta_dot.fixed_rows::<N_JOINTS>(6).into_owned();
         let f1 = self.arm.rnea(&k.xs, &s.qd, &qdd, &base, &f6, &mut tau, motion);
-        let on_vehicle = self.vehicle.wrench(&nu, &nu_dot, &k.g_body, &k.c_body)
+        let on_vehicle = self
+            .vehicle
+            .wrench(&nu, &nu_dot, &k.g_body, &k.c_body, &k.c_rate_body)
             + self.arm.mount().force_inv(&k.xs.x[0].force_inv(&f1));
         let mut out = GenVector::zeros();
         out.fixed_rows_mut::<6>(0).copy_from(&on_vehicle.to_vector6());

@@ -338,6 +338,62 @@ fn a_system_drifting_with_the_current_stays_in_uniform_motion() {
 }
 
 #[test]
+fn a_neutral_system_is_carried_by_water_that_accelerates() {
+    // Every body neutrally buoyant with its centres of gravity and buoyancy at one point, at
+    // rest in water at rest that starts to accelerate: the Froude–Krylov force and the added
+    // mass's give each body exactly the water's acceleration, so the whole system, arm still,
+    // accelerates with the water (any other body would lag or lead it and turn the arm).
+    let mut m = UvmsModel::default();
+    let rho = m.environment.water_density;
+    m.vehicle.displaced_volume = m.vehicle.mass / rho;
+    m.vehicle.center_of_buoyancy = m.vehicle.center_of_gravity;
+    for l in &mut m.arm.links {
+        match &mut l.hydro {
+            Some(c) => {
+                c.volume_in_hull = false;
+                l.mass = rho * std::f64::consts::PI * c.radius * c.radius * c.length;
+                l.center_of_mass = c.center;
+            }
+            None => {
+                l.mass = 0.0;
+                l.inertia = [[0.0; 3]; 3];
+            }
+        }
+    }
+    let mut sys = Multibody::new(&m).unwrap();
+    let rate = Vector3::new(0.3, -0.2, 0.1);
+    sys.current_rate = rate;
+    let mut s = moving_state();
+    s.nu = Vector6::zeros();
+    s.qd = JointVector::zeros();
+    let a = sys.accelerations(&s, &Inputs::default()).unwrap();
+    let expected = s.t_world_body.rotation.inverse() * rate;
+    assert!(
+        (a.nu_dot.fixed_rows::<3>(0) - expected).norm() < 1e-9
+            && a.nu_dot.fixed_rows::<3>(3).norm() < 1e-9
+            && a.qdd.norm() < 1e-9,
+        "{} {}",
+        a.nu_dot,
+        a.qdd
+    );
+    // The default system (its links heavier than the water they displace, its hull a little
+    // lighter) is not carried as the water is, and its arm turns.
+    let mut sys = Multibody::new(&UvmsModel::default()).unwrap();
+    sys.current_rate = rate;
+    let a = sys.accelerations(&s, &Inputs::default()).unwrap();
+    let still = Multibody::new(&UvmsModel::default())
+        .unwrap()
+        .accelerations(&s, &Inputs::default())
+        .unwrap();
+    let felt = a.nu_dot.fixed_rows::<3>(0) - still.nu_dot.fixed_rows::<3>(0);
+    assert!(
+        felt.dot(&expected) > 0.0 && (felt - expected).norm() > 1e-3,
+        "{felt}"
+    );
+    assert!((a.qdd - still.qdd).norm() > 1e-6);
+}
+
+#[test]
 fn floating_dynamics_inverts_the_floating_rnea_and_matches_the_arm_rnea() {
     let m = UvmsModel::default();
     let sys = Multibody::new(&m).unwrap();

@@ -4,10 +4,12 @@
 
 mod common;
 
+use nalgebra::Vector3;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::sync::OnceLock;
+use uvms::sim::current::SeaCurrent;
 
 fn repo(p: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
@@ -398,8 +400,9 @@ fn a_sea_current_is_estimated_and_not_taken_for_contact() {
 }
 
 /// A changing sea current (each horizontal axis fluctuating by 0.1 m/s, the vertical by a
-/// quarter of that, correlated over 10 s, about still water): the plant feels it — the logged
-/// current moves as the process does and the vehicle strays further than in still water —
+/// quarter of that, correlated over 10 s and smoothed over 1 s, about still water): the plant
+/// feels it — the logged current is the process's and the vehicle strays further than in still
+/// water, pushed by the water's drag and its acceleration —
 /// and the contact operation still meets the seed's figures for the force, the contact and the
 /// deviations. (The identification error grows with it: the controllers' estimate of the current
 /// is held from the touch; see the README's "Known limits".)
@@ -423,28 +426,40 @@ fn a_changing_current_is_felt_and_the_contact_holds() {
         "‖r‖ {} m against {still} m in still water",
         f("auv_deviation_max_m")
     );
-    // The logged current is the plant's: its steps between rows (10 ms apart) have the
-    // Gauss–Markov process's spread, σ √(1 − e^(−2Δt/τ)) on each axis (some 3,500 steps: within
-    // a few per cent), which a steady current, or a wrong σ or τ, would not.
+    // The logged current is the plant's, the run's seeded process stepped every period: the
+    // same process, built here from the scenario's values and the run's seed (1), gives every
+    // row's value (printed to 7 digits), which a steady current, or a wrong σ, τ or seed, would
+    // not.
     let series = Series::read(&out);
+    let dt = 1e-3;
+    let mut sea = SeaCurrent::new([0.0; 3], [0.1, 0.1, 0.025], 10.0, 1.0, dt, 1);
+    let expected: Vec<Vector3<f64>> = std::iter::once(sea.now())
+        .chain((0..40_000).map(|_| sea.step()))
+        .collect();
     let t = series.values("t_s");
-    let dt = t[1] - t[0];
-    for (axis, sigma) in [("x", 0.1), ("y", 0.1), ("z", 0.025)] {
-        let v = series.values(&format!("current_{axis}_m_s"));
-        let steps: Vec<f64> = v.windows(2).map(|w| w[1] - w[0]).collect();
-        let spread = (steps.iter().map(|d| d * d).sum::<f64>() / steps.len() as f64).sqrt();
-        let expected = sigma * (1.0 - (-2.0 * dt / 10.0f64).exp()).sqrt();
-        assert!(
-            (spread / expected - 1.0).abs() < 0.1,
-            "axis {axis}: steps of {spread} m/s against {expected}"
-        );
-    }
+    let axes = ["x", "y", "z"].map(|a| series.values(&format!("current_{a}_m_s")));
+    let logged: Vec<Vector3<f64>> = (0..t.len())
+        .map(|i| Vector3::from_fn(|a, _| axes[a][i]))
+        .collect();
+    let off = |o: usize| {
+        t.iter()
+            .zip(&logged)
+            .map(|(t, v)| (v - expected[(t / dt).round() as usize + o]).amax())
+            .fold(0.0, f64::max)
+    };
+    let worst = off(0).min(off(1));
+    assert!(
+        worst < 1e-6,
+        "the logged current is off the process by {worst} m/s"
+    );
+    assert!(logged.iter().any(|v| v.amax() > 0.05), "the current barely moved");
 }
 
 /// A water track (a DVL's, `[sim.sensors] water_track_rate_hz`) measures the current the
 /// thrust-based estimate, held from the touch, cannot follow: in a current fluctuating by
-/// 0.1 m/s the identification's 95 % point comes back near still water's (0.32 against 0.56 N·m
-/// on seed 1; 0.29-0.31 in still water), and the contact keeps the seed's figures.
+/// 0.1 m/s the changed current's drag on the links leaves the identification (its median error
+/// 0.28 against 0.75 N·m on seed 1), while the water's acceleration, which neither estimate
+/// gives the IDP, stays in it; the contact keeps the seed's figures.
 #[test]
 fn a_water_track_follows_a_changing_current() {
     let current = "[sim.scenario]\ncurrent_variation_m_s = [0.1, 0.1, 0.025]";
@@ -453,14 +468,16 @@ fn a_water_track_follows_a_changing_current() {
         format!("{current}\n[sim.sensors]\nwater_track_rate_hz = 10.0"),
     ]);
     let f = |run: &Value, key: &str| run[key].as_f64().unwrap();
-    let (held, tracked) = (
-        f(&runs[0], "moment_id_error_contact_p95_nm"),
-        f(&runs[1], "moment_id_error_contact_p95_nm"),
-    );
-    assert!(
-        tracked <= 0.4 && held >= 1.5 * tracked,
-        "95 % points {tracked} N·m tracked, {held} N·m held"
-    );
+    for (key, factor) in [
+        ("moment_id_error_contact_median_nm", 2.0 / 3.0),
+        ("moment_id_error_contact_p95_nm", 1.0),
+    ] {
+        let (held, tracked) = (f(&runs[0], key), f(&runs[1], key));
+        assert!(
+            tracked <= factor * held,
+            "{key}: {tracked} N·m tracked, {held} N·m held"
+        );
+    }
     assert!((f(&runs[1], "force_settled_mean_n") - 60.0).abs() <= 1.0);
     assert_eq!(f(&runs[1], "contact_lost_s"), 0.0);
     assert!(f(&runs[1], "tool_deviation_max_m") <= 0.006);
@@ -571,6 +588,14 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         (
             "[sim.scenario]\ncurrent_correlation_s = 0.0",
             "variant.toml: sim.scenario.current_correlation_s: must be a finite number > 0",
+        ),
+        (
+            "[sim.scenario]\ncurrent_smoothing_s = 1e-4",
+            "variant.toml: sim.scenario.current_smoothing_s: must be at least the control period (1/control_rate_hz = 0.001 s), got 0.0001",
+        ),
+        (
+            "[sim.scenario]\ncurrent_smoothing_s = 1e6",
+            "variant.toml: sim.scenario.current_smoothing_s: must be at most 1e5 s",
         ),
     ] {
         let p = variant(dir.path(), extra);

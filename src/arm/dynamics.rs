@@ -39,6 +39,8 @@ pub struct BaseMotion {
     pub gravity: Vector3<f64>,
     /// Water velocity, m/s.
     pub current: Vector3<f64>,
+    /// The water's acceleration (the world's rate of the current), m/s².
+    pub current_rate: Vector3<f64>,
 }
 
 impl BaseMotion {
@@ -67,6 +69,7 @@ impl BaseMotion {
             acceleration: arm.mount().motion(&Motion::from_vector6(nu_dot)),
             gravity: to_base(Vector3::new(0.0, 0.0, g)),
             current: to_base(*current_world),
+            current_rate: Vector3::zeros(),
         }
     }
 }
@@ -284,7 +287,8 @@ impl Arm {
         mut motion: Option<&mut LinkMotion>,
     ) {
         let (mut v, mut a) = (base.velocity, base.acceleration);
-        let (mut g, mut c) = (base.gravity, base.current);
+        let (mut g, mut c, mut c_rate) = (base.gravity, base.current, base.current_rate);
+        let changing = c_rate != Vector3::zeros();
         for i in 0..N_JOINTS {
             let link = &self.links[i];
             let x = &xs.x[i];
@@ -293,7 +297,10 @@ impl Arm {
             a = x.motion(&a) + link.axis() * qdd[i] + v.cross(&vj);
             g = x.rot * g;
             c = x.rot * c;
-            forces[i] = link.body.wrench(&v, &a, &g, &c);
+            if changing {
+                c_rate = x.rot * c_rate;
+            }
+            forces[i] = link.body.wrench(&v, &a, &g, &c, &c_rate);
             if let Some(m) = motion.as_deref_mut() {
                 m.v[i] = v;
                 m.a[i] = a;

@@ -14,7 +14,7 @@ pub mod dynamics;
 pub mod ik;
 pub mod kinematics;
 
-use crate::body::{Body, CylinderDrag, Drag};
+use crate::body::{Body, CylinderDrag, Drag, MassMoment};
 use crate::error::Result;
 use crate::model::{self, ArmModel, Dh, Environment, N_JOINTS};
 use crate::spatial_algebra::{Inertia, Motion, Xform};
@@ -258,8 +258,8 @@ fn link(m: &model::LinkModel, env: &Environment, strips: usize) -> Link {
         body: Body::new(
             rigid,
             added,
-            m.mass - rho * volume,
-            com * m.mass - cob * (rho * volume),
+            MassMoment::at(m.mass, &com),
+            MassMoment::at(rho * volume, &cob),
             drag,
         ),
         armature: g * g * m.motor_inertia,

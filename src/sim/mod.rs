@@ -161,6 +161,9 @@ pub struct Scenario {
     pub current_variation_m_s: [f64; 3],
     /// Correlation time of the current's fluctuation, s.
     pub current_correlation_s: f64,
+    /// Smoothing time of the current's fluctuation, s: the lag that gives the water an
+    /// acceleration (see [`current`]).
+    pub current_smoothing_s: f64,
     /// The open loop of eq. (17) in the vehicle's stabilisation.
     pub open_loop: bool,
     /// The trajectory correction of eq. (18).
@@ -175,6 +178,7 @@ impl Default for Scenario {
             current_m_s: [0.0; 3],
             current_variation_m_s: [0.0; 3],
             current_correlation_s: 10.0,
+            current_smoothing_s: 1.0,
             open_loop: true,
             trajectory_correction: true,
             force_loop: true,
@@ -184,8 +188,8 @@ impl Default for Scenario {
 
 impl Scenario {
     /// Checks the current's fluctuation: finite, non-negative spreads whose four standard
-    /// deviations with the mean stay within the fastest current, a positive correlation time
-    /// (its upper bound is checked with the other times').
+    /// deviations with the mean stay within the fastest current, positive correlation and
+    /// smoothing times (their upper bounds are checked with the other times').
     fn check_variation(&self) -> Result<()> {
         let key = "sim.scenario.current_variation_m_s";
         for s in self.current_variation_m_s {
@@ -194,7 +198,8 @@ impl Scenario {
         let widest: [f64; 3] =
             std::array::from_fn(|i| self.current_m_s[i].abs() + 4.0 * self.current_variation_m_s[i]);
         check_current(&format!("{key} (its mean and four standard deviations)"), widest)?;
-        positive("sim.scenario.current_correlation_s", self.current_correlation_s)
+        positive("sim.scenario.current_correlation_s", self.current_correlation_s)?;
+        positive("sim.scenario.current_smoothing_s", self.current_smoothing_s)
     }
 
     /// Whether the current fluctuates.
@@ -386,6 +391,10 @@ impl SimConfig {
                 "sim.scenario.current_correlation_s",
                 self.scenario.current_correlation_s,
             ),
+            (
+                "sim.scenario.current_smoothing_s",
+                self.scenario.current_smoothing_s,
+            ),
         ] {
             // (NaN is left to each value's own check below.)
             require(
@@ -397,6 +406,18 @@ impl SimConfig {
         non_negative("sim.settle_time_s", self.settle_time_s)?;
         check_current("sim.scenario.current_m_s", self.scenario.current_m_s)?;
         self.scenario.check_variation()?;
+        // The plant holds the water's rate over a control period: a lag shorter than the
+        // period would be lost between the samples.
+        require(
+            self.scenario.current_smoothing_s.is_nan()
+                || self.scenario.current_smoothing_s * self.control_rate_hz >= 1.0,
+            "sim.scenario.current_smoothing_s",
+            format!(
+                "must be at least the control period (1/control_rate_hz = {} s), got {}",
+                shown(1.0 / self.control_rate_hz),
+                shown(self.scenario.current_smoothing_s)
+            ),
+        )?;
         positive("sim.dwell.tolerance_n", self.dwell.tolerance_n)?;
         non_negative("sim.dwell.hold_s", self.dwell.hold_s)?;
         non_negative("sim.dwell.max_wait_s", self.dwell.max_wait_s)?;
@@ -540,6 +561,7 @@ pub fn simulate(
         sc.current_m_s,
         sc.current_variation_m_s,
         sc.current_correlation_s,
+        sc.current_smoothing_s,
         dt,
         cfg.seed,
     );
@@ -829,6 +851,7 @@ pub fn simulate(
         });
         // The plant's water over the period ahead.
         plant.system.current = sea.step();
+        plant.system.current_rate = sea.rate();
         let mut first_acc = None;
         for sub in 0..cfg.plant_substeps {
             let (contact_now, damping_now) = if sub > 0 {

@@ -364,7 +364,13 @@ mod tests {
         };
         let at_station = thrust(hover.translation.vector, Vector3::zeros());
         let g_body = attitude.inverse() * Vector3::new(0.0, 0.0, g);
-        let holding = vehicle.wrench(&Motion::ZERO, &Motion::ZERO, &g_body, &Vector3::zeros());
+        let holding = vehicle.wrench(
+            &Motion::ZERO,
+            &Motion::ZERO,
+            &g_body,
+            &Vector3::zeros(),
+            &Vector3::zeros(),
+        );
         let expected = holding.to_vector6() + open_loop.to_vector6();
         assert!(
             (at_station - expected).amax() < 1e-9,

@@ -14,7 +14,7 @@
 //! `m2c`), and [`restoring`] his closed form of `g(η)` in Euler angles, both for checks and for
 //! controllers that want the textbook matrices.
 
-use crate::body::{Body, Drag};
+use crate::body::{Body, Drag, MassMoment};
 use crate::model::{self, Environment, VehicleModel};
 use crate::spatial_algebra::{Inertia, Xform, skew};
 use nalgebra::{Matrix6, Vector3, Vector6};
@@ -31,8 +31,8 @@ pub fn vehicle_body(v: &VehicleModel, env: &Environment) -> Body {
     Body::new(
         rigid,
         added,
-        v.mass - displaced,
-        r_g * v.mass - r_b * displaced,
+        MassMoment::at(v.mass, &r_g),
+        MassMoment::at(displaced, &r_b),
         Drag::Fossen {
             origin,
             linear: Vector6::from_column_slice(&v.linear_damping),
@@ -119,7 +119,9 @@ mod tests {
         let r = UnitQuaternion::from_euler_angles(phi, theta, psi);
         let g_body = r.inverse() * Vector3::new(0.0, 0.0, m.environment.gravity);
         let zero = Motion::ZERO;
-        let got = body.wrench(&zero, &zero, &g_body, &Vector3::zeros()).to_vector6();
+        let got = body
+            .wrench(&zero, &zero, &g_body, &Vector3::zeros(), &Vector3::zeros())
+            .to_vector6();
         let w = v.mass * m.environment.gravity;
         let b = m.environment.water_density * m.environment.gravity * v.displaced_volume;
         let want = restoring(
