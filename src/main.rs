@@ -1,27 +1,13 @@
 //! The `uvms` binary: parses the command line and maps errors to exit codes
-//! (0 success, 1 failed run, 2 bad input or usage, 130 interrupted by a signal).
+//! (0 success, 1 failed run, 2 bad input or usage; a run stopped by SIGINT, SIGTERM or SIGHUP
+//! ends as killed by it, after removing the file it was writing).
 
 use clap::Parser;
-use std::io::IsTerminal;
 use std::process::ExitCode;
 
-/// The exit code of a run stopped by a signal (SIGINT, SIGTERM or SIGHUP): 128 + SIGINT's
-/// number, as shells report it.
-const INTERRUPTED: i32 = 130;
-
 fn main() -> ExitCode {
-    // A signal stops the run where it is: the files being written are removed, those already
-    // complete stay, and nothing is written after (the lock is held until the exit).
-    let handler = ctrlc::set_handler(|| {
-        let _writing = uvms::output::remove_unfinished();
-        // Off a progress bar's line, on a terminal.
-        let newline = if std::io::stderr().is_terminal() { "\n" } else { "" };
-        eprintln!("{newline}error: interrupted: stopped by a signal; no file was left half-written");
-        std::process::exit(INTERRUPTED);
-    });
-    if let Err(e) = handler {
-        eprintln!("warning: cannot handle interruptions ({e}): one may leave a .NAME.PID.tmp in --out");
-    }
+    #[cfg(unix)]
+    stop_cleanly_on_signals();
     let cli = match uvms::cli::Cli::try_parse() {
         Ok(cli) => cli,
         // Help and version go to stdout as clap prints them.
@@ -56,4 +42,57 @@ fn main() -> ExitCode {
             ExitCode::from(e.exit_code() as u8)
         }
     }
+}
+
+/// A signal that would stop the run (SIGINT, SIGTERM, SIGHUP) stops it where it is: the files
+/// being written are removed, those already complete stay, nothing is written after (the lock
+/// on their list is held to the end), and the process ends as killed by the signal (a shell
+/// reports 128 + its number: 130 for Ctrl-C), so that scripts and loops stop too. A signal the
+/// process was started ignoring (`nohup`'s SIGHUP, a background job's SIGINT) stays ignored.
+#[cfg(unix)]
+fn stop_cleanly_on_signals() {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    use signal_hook::low_level::{emulate_default_handler, signal_name};
+    use std::io::{IsTerminal, Write};
+    let wanted: Vec<i32> = [SIGINT, SIGTERM, SIGHUP]
+        .into_iter()
+        .filter(|s| !ignored(*s))
+        .collect();
+    let mut signals = match signal_hook::iterator::Signals::new(&wanted) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!(
+                "warning: cannot handle signals ({e}): an interrupted run may leave a .NAME.PID.tmp in --out"
+            );
+            return;
+        }
+    };
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            let _writing = uvms::output::remove_unfinished();
+            // Off a progress bar's line, on a terminal; a closed stderr is no reason to go on.
+            let newline = if std::io::stderr().is_terminal() { "\n" } else { "" };
+            let name = signal_name(signal).unwrap_or("a signal");
+            let _ = writeln!(
+                std::io::stderr(),
+                "{newline}error: interrupted by {name}: stopped; no file was left half-written"
+            );
+            let _ = emulate_default_handler(signal);
+            std::process::exit(128 + signal);
+        }
+    });
+}
+
+/// Whether the process was started with `signal` ignored (Linux's `/proc/self/status`,
+/// `SigIgn`; elsewhere none is taken as ignored).
+#[cfg(unix)]
+fn ignored(signal: i32) -> bool {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("SigIgn:"))
+                .and_then(|mask| u64::from_str_radix(mask.trim(), 16).ok())
+        })
+        .is_some_and(|mask| (mask >> (signal - 1)) & 1 == 1)
 }

@@ -25,6 +25,40 @@ fn unfinished() -> MutexGuard<'static, Vec<PathBuf>> {
     UNFINISHED.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
+/// A temporary file being written, on the list from its creation: renamed into place, or
+/// removed when dropped (an error, or a panic unwinding through the writer).
+struct Unfinished(PathBuf);
+
+impl Unfinished {
+    /// Creates `path` new and lists it, under the lock.
+    fn create(path: PathBuf) -> std::io::Result<(Self, fs::File)> {
+        let mut list = unfinished();
+        let file = fs::File::create_new(&path)?;
+        list.push(path.clone());
+        Ok((Unfinished(path), file))
+    }
+
+    /// Renames the file to `target` and takes it off the list, under the lock (an
+    /// interrupted run then finds it complete, or removes it before it is renamed). On an
+    /// error the file is removed as `self` drops, after the lock (a local) is released.
+    fn rename(self, target: &Path) -> std::io::Result<()> {
+        let mut list = unfinished();
+        fs::rename(&self.0, target)?;
+        list.retain(|p| *p != self.0);
+        Ok(())
+    }
+}
+
+impl Drop for Unfinished {
+    fn drop(&mut self) {
+        let mut list = unfinished();
+        if let Some(i) = list.iter().position(|p| *p == self.0) {
+            let _ = fs::remove_file(&self.0);
+            list.swap_remove(i);
+        }
+    }
+}
+
 /// Removes the temporary files this process is writing, for a run interrupted by a signal,
 /// and returns the lock on their list: held until the process exits, no file is created or
 /// renamed into place after it. A product already renamed is complete and stays.
@@ -111,29 +145,17 @@ impl OutDir {
                 "not a declared product of this command (the inputs were not checked against it)",
             ));
         }
-        let tmp = self.dir.join(temporary(name));
         let stage = format!("write {}", target.display());
         // Never truncate an existing file, should one have the temporary name.
-        let file = {
-            let mut list = unfinished();
-            let file = fs::File::create_new(&tmp).map_err(|e| Error::failed(&stage, e))?;
-            list.push(tmp.clone());
-            file
-        };
-        let result = (|| {
-            let mut w = BufWriter::new(file);
-            fill(&mut w)?;
-            w.flush().map_err(|e| Error::failed(&stage, e))?;
-            let file = w.into_inner().map_err(|e| Error::failed(&stage, e.error()))?;
-            file.sync_all().map_err(|e| Error::failed(&stage, e))
-        })();
-        let mut list = unfinished();
-        let result = result.and_then(|()| fs::rename(&tmp, &target).map_err(|e| Error::failed(&stage, e)));
-        if result.is_err() {
-            let _ = fs::remove_file(&tmp);
-        }
-        list.retain(|p| *p != tmp);
-        result.map(|()| target)
+        let (tmp, file) =
+            Unfinished::create(self.dir.join(temporary(name))).map_err(|e| Error::failed(&stage, e))?;
+        let mut w = BufWriter::new(file);
+        fill(&mut w)?;
+        w.flush().map_err(|e| Error::failed(&stage, e))?;
+        let file = w.into_inner().map_err(|e| Error::failed(&stage, e.error()))?;
+        file.sync_all().map_err(|e| Error::failed(&stage, e))?;
+        tmp.rename(&target).map_err(|e| Error::failed(&stage, e))?;
+        Ok(target)
     }
 
     /// Writes raw bytes atomically.
@@ -183,6 +205,22 @@ mod tests {
             .unwrap_err();
         assert_eq!(err.exit_code(), 1);
         assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn a_panicking_fill_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = OutDir::create(dir.path(), &[], &["a.txt"]).unwrap();
+        let unwound = std::panic::catch_unwind(|| {
+            out.write_with("a.txt", |w| {
+                w.write_all(b"half").unwrap();
+                panic!("a writer's bug");
+            })
+        });
+        assert!(unwound.is_err());
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 0);
+        // Off the list too: an interruption now has nothing of it to remove.
+        assert!(!unfinished().iter().any(|p| p.starts_with(dir.path())));
     }
 
     #[test]

@@ -1,59 +1,95 @@
-//! A run stopped by a signal: exit 130 with one line on stderr, the file it was writing removed,
-//! the files it had finished complete, and nothing written after the signal.
+//! A run stopped by a signal: it ends as killed by that signal with one line on stderr, the file
+//! it was writing removed, the files it had finished complete, and nothing written after the
+//! signal; a signal it was started ignoring (`nohup`) stays ignored.
+#![cfg(unix)]
 
 mod common;
 
 use std::fs;
+use std::os::unix::process::ExitStatusExt;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 use uvms::io::ply::read_ply;
 
+/// The PLY files being written in `dir` (`.NAME.ply.PID.tmp`): megabytes, written for
+/// milliseconds.
+fn ply_being_written(dir: &Path) -> bool {
+    fs::read_dir(dir).is_ok_and(|entries| {
+        entries
+            .filter_map(|e| e.ok()?.file_name().into_string().ok())
+            .any(|n| n.ends_with(".tmp") && n.contains(".ply."))
+    })
+}
+
 /// The temporary files (`.NAME.PID.tmp`) in `dir`.
 fn temporaries(dir: &Path) -> Vec<String> {
-    let Ok(entries) = fs::read_dir(dir) else {
-        return Vec::new();
-    };
-    entries
+    fs::read_dir(dir)
+        .unwrap()
         .filter_map(|e| e.ok()?.file_name().into_string().ok())
         .filter(|n| n.ends_with(".tmp"))
         .collect()
 }
 
-/// Starts `uvms synth` (three PLY files of megabytes), waits until one of its files is being
-/// written, sends `signal` and checks what is left. Returns false if the run ended before a
-/// file could be caught being written.
-fn interrupt_while_writing(signal: &str) -> bool {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("out");
-    let mut child = Command::new(common::uvms_bin())
-        .args(["synth", "--scene", "bottle", "--quiet", "--out"])
-        .arg(&out)
+/// `uvms synth` (three PLY files of megabytes) into `out`, started by `sh` with `prelude`.
+fn synth(out: &Path, prelude: &str) -> Child {
+    let script = format!("{prelude} exec \"$0\" synth --scene bottle --quiet --out \"$1\"",);
+    Command::new("sh")
+        .args(["-c", &script])
+        .arg(common::uvms_bin())
+        .arg(out)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
-        .unwrap();
-    let start = Instant::now();
-    loop {
-        if !temporaries(&out).is_empty() {
-            break;
-        }
-        if child.try_wait().unwrap().is_some() || start.elapsed() > Duration::from_secs(300) {
-            let _ = child.kill();
-            let _ = child.wait();
-            return false;
-        }
-    }
-    let killed = Command::new("kill")
-        .args([signal, &child.id().to_string()])
+        .unwrap()
+}
+
+fn send(signal: &str, child: &Child) {
+    let sent = Command::new("sh")
+        .args(["-c", &format!("kill -{signal} {}", child.id())])
         .status()
         .unwrap();
-    assert!(killed.success(), "kill {signal}");
+    assert!(sent.success(), "kill -{signal}");
+}
+
+/// Waits until `child` writes a PLY file into `out`; false if it ended first.
+fn caught_writing(child: &mut Child, out: &Path) -> bool {
+    let start = Instant::now();
+    while !ply_being_written(out) {
+        if child.try_wait().unwrap().is_some() || start.elapsed() > Duration::from_secs(300) {
+            return false;
+        }
+        std::thread::sleep(Duration::from_micros(500));
+    }
+    true
+}
+
+/// Interrupts `uvms synth` with `signal` (its number `number`) while it writes a PLY file and
+/// checks what is left. False if the run ended before it could be caught writing.
+fn interrupt_while_writing(signal: &str, number: i32) -> bool {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let mut child = synth(&out, "");
+    if !caught_writing(&mut child, &out) {
+        let _ = child.kill();
+        let _ = child.wait();
+        return false;
+    }
+    send(signal, &child);
     let output = child.wait_with_output().unwrap();
+    if output.status.success() {
+        // It finished between the catch and the signal.
+        return false;
+    }
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(130), "{signal}: {stderr}");
+    assert_eq!(
+        output.status.signal(),
+        Some(number),
+        "{signal}: {:?} {stderr}",
+        output.status
+    );
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
-    assert!(stderr.contains("interrupted"), "{stderr}");
+    assert!(stderr.contains("interrupted by SIG"), "{stderr}");
     assert_eq!(
         temporaries(&out),
         Vec::<String>::new(),
@@ -73,11 +109,29 @@ fn interrupt_while_writing(signal: &str) -> bool {
 
 #[test]
 fn a_signal_stops_the_run_and_removes_the_file_being_written() {
-    for signal in ["-INT", "-TERM"] {
+    for (signal, number) in [("INT", 2), ("TERM", 15)] {
         // The writes take milliseconds; the poll catches one nearly every time.
         assert!(
-            (0..10).any(|_| interrupt_while_writing(signal)),
-            "{signal}: no file caught being written in ten runs"
+            (0..10).any(|_| interrupt_while_writing(signal, number)),
+            "{signal}: no PLY file caught being written in ten runs"
         );
     }
+}
+
+/// Started with SIGHUP ignored (as `nohup` starts it), the run goes on through one.
+#[test]
+fn a_signal_ignored_at_the_start_stays_ignored() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let mut child = synth(&out, "trap '' HUP;");
+    assert!(caught_writing(&mut child, &out), "the run ended before it wrote");
+    send("HUP", &child);
+    let output = child.wait_with_output().unwrap();
+    assert!(
+        output.status.success(),
+        "{:?} {}",
+        output.status,
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(out.join("summary.json").exists());
 }

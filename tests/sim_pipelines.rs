@@ -432,22 +432,22 @@ fn a_changing_current_is_felt_and_the_contact_holds() {
     // not.
     let series = Series::read(&out);
     let dt = 1e-3;
+    let t = series.values("t_s");
+    let periods = (t[t.len() - 1] / dt).round() as usize;
     let mut sea = SeaCurrent::new([0.0; 3], [0.1, 0.1, 0.025], 10.0, 1.0, dt, 1);
     let expected: Vec<Vector3<f64>> = std::iter::once(sea.now())
-        .chain((0..40_000).map(|_| sea.step()))
+        .chain((0..periods).map(|_| sea.step()))
         .collect();
-    let t = series.values("t_s");
     let axes = ["x", "y", "z"].map(|a| series.values(&format!("current_{a}_m_s")));
     let logged: Vec<Vector3<f64>> = (0..t.len())
         .map(|i| Vector3::from_fn(|a, _| axes[a][i]))
         .collect();
-    let off = |o: usize| {
-        t.iter()
-            .zip(&logged)
-            .map(|(t, v)| (v - expected[(t / dt).round() as usize + o]).amax())
-            .fold(0.0, f64::max)
-    };
-    let worst = off(0).min(off(1));
+    // Row k is logged at t = k dt, before the period's step.
+    let worst = t
+        .iter()
+        .zip(&logged)
+        .map(|(t, v)| (v - expected[(t / dt).round() as usize]).amax())
+        .fold(0.0, f64::max);
     assert!(
         worst < 1e-6,
         "the logged current is off the process by {worst} m/s"
@@ -590,7 +590,7 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
             "variant.toml: sim.scenario.current_correlation_s: must be a finite number > 0",
         ),
         (
-            "[sim.scenario]\ncurrent_smoothing_s = 1e-4",
+            "[sim.scenario]\ncurrent_variation_m_s = [0.1, 0.0, 0.0]\ncurrent_smoothing_s = 1e-4",
             "variant.toml: sim.scenario.current_smoothing_s: must be at least the control period (1/control_rate_hz = 0.001 s), got 0.0001",
         ),
         (

@@ -154,7 +154,8 @@ impl Arm {
     /// with the base moving at `base.velocity` in gravity `base.gravity` and the current
     /// `base.current` (`base.acceleration` is not used): the link transforms, the links'
     /// velocities, and each link's wrench for its velocity-product acceleration with its
-    /// velocity-dependent terms, gravity and buoyancy. [`Arm::inverse_dynamics_split`] adds the
+    /// velocity-dependent terms, gravity and buoyancy, and the push of the water's acceleration
+    /// `base.current_rate`. [`Arm::inverse_dynamics_split`] adds the
     /// accelerations' part; several of them at one state share this.
     pub fn velocity_terms(&self, q: &JointVector, qd: &JointVector, base: &BaseMotion) -> VelocityTerms {
         let xs = self.transforms(q);

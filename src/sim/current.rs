@@ -123,10 +123,19 @@ mod tests {
             for _ in 0..(10.0 * tau / dt) as usize {
                 c.step();
             }
-            // (At least 20,000 samples: one a correlation time at dt = τ.)
-            let n = ((2000.0 * tau / dt) as usize).max(20_000);
-            let (v, rate): (Vec<_>, Vec<_>) = (0..n).map(|_| (c.step(), c.rate())).unzip();
-            let lag = (tau / dt) as usize;
+            // Kept every 10 ms or every step if longer (at least 20,000 samples: one a
+            // correlation time at dt = τ).
+            let stride = ((0.01 / dt).round() as usize).max(1);
+            let n = ((2000.0 * tau / (dt * stride as f64)) as usize).max(20_000);
+            let (v, rate): (Vec<_>, Vec<_>) = (0..n)
+                .map(|_| {
+                    for _ in 1..stride {
+                        c.step();
+                    }
+                    (c.step(), c.rate())
+                })
+                .unzip();
+            let lag = (tau / (dt * stride as f64)).round() as usize;
             for i in 0..3 {
                 let x: Vec<f64> = v.iter().map(|v| v[i] - mean[i]).collect();
                 let (m, sd) = mean_sd(&x);

@@ -409,7 +409,8 @@ impl SimConfig {
         // The plant holds the water's rate over a control period: a lag shorter than the
         // period would be lost between the samples.
         require(
-            self.scenario.current_smoothing_s.is_nan()
+            !self.scenario.current_varies()
+                || self.scenario.current_smoothing_s.is_nan()
                 || self.scenario.current_smoothing_s * self.control_rate_hz >= 1.0,
             "sim.scenario.current_smoothing_s",
             format!(
