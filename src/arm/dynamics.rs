@@ -63,15 +63,33 @@ impl BaseMotion {
         g: f64,
         current_world: &Vector3<f64>,
     ) -> Self {
-        let to_base = |w: Vector3<f64>| arm.mount().rot * (r_world_body.inverse() * w);
         BaseMotion {
             velocity: arm.mount().motion(&Motion::from_vector6(nu)),
             acceleration: arm.mount().motion(&Motion::from_vector6(nu_dot)),
-            gravity: to_base(Vector3::new(0.0, 0.0, g)),
-            current: to_base(*current_world),
+            gravity: world_to_base(arm, r_world_body, &Vector3::new(0.0, 0.0, g)),
+            current: world_to_base(arm, r_world_body, current_world),
             current_rate: Vector3::zeros(),
         }
     }
+
+    /// This base in water accelerating at `rate_world` (m/s², NED), the vehicle at attitude
+    /// `r_world_body`.
+    pub fn with_current_rate(
+        self,
+        arm: &Arm,
+        r_world_body: &UnitQuaternion<f64>,
+        rate_world: &Vector3<f64>,
+    ) -> Self {
+        BaseMotion {
+            current_rate: world_to_base(arm, r_world_body, rate_world),
+            ..self
+        }
+    }
+}
+
+/// A world vector in the base frame of `arm` on a vehicle at attitude `r_world_body`.
+fn world_to_base(arm: &Arm, r_world_body: &UnitQuaternion<f64>, w: &Vector3<f64>) -> Vector3<f64> {
+    arm.mount().rot * (r_world_body.inverse() * w)
 }
 
 /// The result of the inverse dynamics.

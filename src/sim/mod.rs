@@ -701,7 +701,8 @@ pub fn simulate(
         let nu_est = Vector6::new(0.0, 0.0, 0.0, omega.x, omega.y, omega.z);
         // The sea current as the stabilisation has felt it (learnt until the touch, then held).
         let current = vc.current(&ctrl.vehicle, &meas.attitude);
-        let base = BaseMotion::on_vehicle(arm, &meas.attitude, &nu_est, &Vector6::zeros(), g, &current);
+        let base = BaseMotion::on_vehicle(arm, &meas.attitude, &nu_est, &Vector6::zeros(), g, &current)
+            .with_current_rate(arm, &meas.attitude, &vc.current_rate());
         // The desired tool state.
         let mut s = trajectory
             .sample_at(clock)

@@ -69,6 +69,9 @@ pub struct VehicleControlConfig {
     /// `[sim.sensors] water_track_rate_hz`), from which the current is then estimated, s
     /// (`current_filter_s = 0` assumes still water and leaves the track unused).
     pub water_track_filter_s: f64,
+    /// Time constant of the low-pass on the rate of that estimate, the water's acceleration
+    /// the IDP then takes, s (0: the IDP takes the water as not accelerating).
+    pub water_track_rate_filter_s: f64,
 }
 
 /// The position gains are those a 0.25 s old feedback did not allow: on the navigation's
@@ -86,6 +89,7 @@ impl Default for VehicleControlConfig {
             open_loop_lag_s: 0.05,
             current_filter_s: 5.0,
             water_track_filter_s: 0.1,
+            water_track_rate_filter_s: 0.3,
         }
     }
 }
@@ -104,7 +108,11 @@ impl VehicleControlConfig {
         non_negative("sim.vehicle.attitude_kd", self.attitude_kd)?;
         non_negative("sim.vehicle.open_loop_lag_s", self.open_loop_lag_s)?;
         non_negative("sim.vehicle.current_filter_s", self.current_filter_s)?;
-        non_negative("sim.vehicle.water_track_filter_s", self.water_track_filter_s)
+        non_negative("sim.vehicle.water_track_filter_s", self.water_track_filter_s)?;
+        non_negative(
+            "sim.vehicle.water_track_rate_filter_s",
+            self.water_track_rate_filter_s,
+        )
     }
 }
 
@@ -126,6 +134,8 @@ pub struct VehicleControl {
     estimate: Vector3<f64>,
     /// The water track's pings in the world, low-passed (none without a water track), m/s.
     flow: Option<Vector3<f64>>,
+    /// That estimate's rate, low-passed, m/s².
+    flow_rate: Vector3<f64>,
 }
 
 impl VehicleControl {
@@ -144,6 +154,7 @@ impl VehicleControl {
             learning: true,
             estimate: Vector3::zeros(),
             flow: None,
+            flow_rate: Vector3::zeros(),
         }
     }
 
@@ -204,6 +215,19 @@ impl VehicleControl {
         self.estimate
     }
 
+    /// The water's acceleration the controllers assume (world axes, m/s²): with a water track
+    /// and `water_track_rate_filter_s > 0`, the rate of the track's estimate of the current
+    /// ([`VehicleControl::current`]) low-passed over that time; none otherwise (nothing else
+    /// measures it).
+    pub fn current_rate(&self) -> Vector3<f64> {
+        let c = &self.cfg;
+        if self.flow.is_some() && c.current_filter_s > 0.0 && c.water_track_rate_filter_s > 0.0 {
+            self.flow_rate
+        } else {
+            Vector3::zeros()
+        }
+    }
+
     /// The command that makes thrusters of time constant `τ_T` (held over the period) deliver
     /// `open_loop` through a first-order low-pass of `τ_f = open_loop_lag_s`: the thrust that
     /// is the low-pass's output `y` now moves to its next value, `y + (x − y) k_f / k_T` with
@@ -244,7 +268,11 @@ impl VehicleControl {
             // The water's velocity over the ground: the flow past the vehicle plus the
             // vehicle's own velocity (the IDP takes the vehicle's linear motion as none).
             let water = m.attitude * ping + nav.velocity;
-            *flow += (water - *flow) * lag_gain(dt, c.water_track_filter_s);
+            let step = (water - *flow) * lag_gain(dt, c.water_track_filter_s);
+            *flow += step;
+            if dt > 0.0 {
+                self.flow_rate += (step / dt - self.flow_rate) * lag_gain(dt, c.water_track_rate_filter_s);
+            }
         }
         let r = m.attitude;
         let e_pos = r.inverse() * (self.hover.translation.vector - nav.position);
@@ -493,5 +521,40 @@ mod tests {
         let got = vc.current(&vehicle, &attitude);
         let expected = turned + (current - turned) * (-1.0f64).exp();
         assert!((got - expected).norm() < 1e-9, "{got} against {expected}");
+    }
+
+    /// Water whose velocity grows steadily: once the two lags have passed, the estimate of the
+    /// water's acceleration is that acceleration (the derivative of a ramp through a lag is
+    /// the ramp's slope); without a water track, or with the rate's filter off, none.
+    #[test]
+    fn a_water_track_gives_the_water_s_acceleration() {
+        let (vehicle, attitude) = vehicle_turned();
+        let hover = Isometry3::from_parts(Vector3::zeros().into(), attitude);
+        let cfg = VehicleControlConfig::default();
+        let nav = Navigation::new(&Default::default(), &Default::default(), Vector3::zeros(), 9.81);
+        let (start, slope) = (Vector3::new(0.1, 0.0, 0.0), Vector3::new(0.02, -0.03, 0.005));
+        let ramp = |cfg: &VehicleControlConfig, track: bool| {
+            let mut vc = VehicleControl::new(cfg, &hover, 0.2);
+            vc.settle_water_track(track.then(|| attitude.inverse() * start), &attitude);
+            let mut m = read_at_rest(attitude, Vector3::zeros(), 9.81);
+            let dt = 1e-3;
+            for k in 0..5000 {
+                let water = start + slope * (k as f64 * dt);
+                m.water_flow = track.then(|| attitude.inverse() * water);
+                vc.wrench(&m, &nav, &vehicle, 9.81, &Force::ZERO, dt);
+            }
+            vc.current_rate()
+        };
+        let got = ramp(&cfg, true);
+        assert!(
+            (got - slope).norm() < 1e-6 * slope.norm(),
+            "{got} against {slope}"
+        );
+        assert_eq!(ramp(&cfg, false), Vector3::zeros());
+        let off = VehicleControlConfig {
+            water_track_rate_filter_s: 0.0,
+            ..cfg
+        };
+        assert_eq!(ramp(&off, true), Vector3::zeros());
     }
 }
