@@ -38,7 +38,7 @@ use crate::body::Body;
 use crate::config::non_negative;
 use crate::error::Result;
 use crate::integrate::lag_gain;
-use crate::spatial_algebra::Force;
+use crate::spatial_algebra::{Force, Motion};
 use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
@@ -297,6 +297,14 @@ impl VehicleControl {
             .copy_from(&(lin - restoring.lin + open_loop.lin));
         tau.fixed_rows_mut::<3>(3)
             .copy_from(&(ang - restoring.ang + open_loop.ang));
+        // Cancel the push of the water's acceleration on the hull (the displaced water's and
+        // the added mass's), as eq. (17) cancels the arm's, when the water track gives it.
+        let rate = self.current_rate();
+        if rate != Vector3::zeros() {
+            let z = Vector3::zeros();
+            let held = vehicle.wrench(&Motion::ZERO, &Motion::ZERO, &z, &z, &(r.inverse() * rate));
+            tau += held.to_vector6();
+        }
         tau
     }
 }
@@ -525,7 +533,9 @@ mod tests {
 
     /// Water whose velocity grows steadily: once the two lags have passed, the estimate of the
     /// water's acceleration is that acceleration (the derivative of a ramp through a lag is
-    /// the ramp's slope); without a water track, or with the rate's filter off, none.
+    /// the ramp's slope), and the stabilisation adds the thrust that cancels its push on the
+    /// hull, `(ρ∇ + M_A) ċ` at the centre of buoyancy, from the controllers' model; without a
+    /// water track, or with the rate's filter off, neither.
     #[test]
     fn a_water_track_gives_the_water_s_acceleration() {
         let (vehicle, attitude) = vehicle_turned();
@@ -538,23 +548,42 @@ mod tests {
             vc.settle_water_track(track.then(|| attitude.inverse() * start), &attitude);
             let mut m = read_at_rest(attitude, Vector3::zeros(), 9.81);
             let dt = 1e-3;
+            let mut tau = Vector6::zeros();
             for k in 0..5000 {
                 let water = start + slope * (k as f64 * dt);
                 m.water_flow = track.then(|| attitude.inverse() * water);
-                vc.wrench(&m, &nav, &vehicle, 9.81, &Force::ZERO, dt);
+                tau = vc.wrench(&m, &nav, &vehicle, 9.81, &Force::ZERO, dt);
             }
-            vc.current_rate()
+            (vc.current_rate(), tau)
         };
-        let got = ramp(&cfg, true);
+        let (rate, tau) = ramp(&cfg, true);
         assert!(
-            (got - slope).norm() < 1e-6 * slope.norm(),
-            "{got} against {slope}"
+            (rate - slope).norm() < 1e-6 * slope.norm(),
+            "{rate} against {slope}"
         );
-        assert_eq!(ramp(&cfg, false), Vector3::zeros());
         let off = VehicleControlConfig {
             water_track_rate_filter_s: 0.0,
             ..cfg
         };
-        assert_eq!(ramp(&off, true), Vector3::zeros());
+        let (rate_off, tau_off) = ramp(&off, true);
+        assert_eq!(rate_off, Vector3::zeros());
+        assert_eq!(ramp(&cfg, false).0, Vector3::zeros());
+        // The same closed loop but for the push's cancellation: the model hull's wrench held
+        // at rest in water accelerating at the estimate (Morison's, `body::tests`), in `C`.
+        let lhs = vehicle
+            .wrench(
+                &Motion::ZERO,
+                &Motion::ZERO,
+                &Vector3::zeros(),
+                &Vector3::zeros(),
+                &(attitude.inverse() * slope),
+            )
+            .to_vector6();
+        assert!(
+            (tau - tau_off - lhs).norm() < 1e-5 * lhs.norm(),
+            "{} against {lhs}",
+            tau - tau_off
+        );
+        assert!(lhs.norm() > 1.0);
     }
 }
