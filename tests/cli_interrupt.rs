@@ -107,9 +107,28 @@ fn interrupt_while_writing(signal: &str, number: i32) -> bool {
     true
 }
 
+/// Whether this test process was started with `signal` ignored (Linux's `SigIgn`): a child
+/// inherits it, and `uvms` then leaves it ignored, as it should.
+fn inherited_ignored(signal: i32) -> bool {
+    fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("SigIgn:"))
+                .and_then(|m| u64::from_str_radix(m.trim(), 16).ok())
+        })
+        .is_some_and(|mask| (mask >> (signal - 1)) & 1 == 1)
+}
+
 #[test]
 fn a_signal_stops_the_run_and_removes_the_file_being_written() {
     for (signal, number) in [("INT", 2), ("TERM", 15)] {
+        if inherited_ignored(number) {
+            eprintln!(
+                "note: SIG{signal} is ignored in this test process (a background job?): its case is skipped"
+            );
+            continue;
+        }
         // The writes take milliseconds; the poll catches one nearly every time.
         assert!(
             (0..10).any(|_| interrupt_while_writing(signal, number)),
@@ -121,17 +140,23 @@ fn a_signal_stops_the_run_and_removes_the_file_being_written() {
 /// Started with SIGHUP ignored (as `nohup` starts it), the run goes on through one.
 #[test]
 fn a_signal_ignored_at_the_start_stays_ignored() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("out");
-    let mut child = synth(&out, "trap '' HUP;");
-    assert!(caught_writing(&mut child, &out), "the run ended before it wrote");
-    send("HUP", &child);
-    let output = child.wait_with_output().unwrap();
-    assert!(
-        output.status.success(),
-        "{:?} {}",
-        output.status,
-        String::from_utf8_lossy(&output.stderr)
-    );
-    assert!(out.join("summary.json").exists());
+    let caught = (0..10).any(|_| {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out");
+        let mut child = synth(&out, "trap '' HUP;");
+        let caught = caught_writing(&mut child, &out);
+        if caught {
+            send("HUP", &child);
+        }
+        let output = child.wait_with_output().unwrap();
+        assert!(
+            output.status.success(),
+            "{:?} {}",
+            output.status,
+            String::from_utf8_lossy(&output.stderr)
+        );
+        assert!(out.join("summary.json").exists());
+        caught
+    });
+    assert!(caught, "no PLY file caught being written in ten runs");
 }

@@ -459,9 +459,9 @@ fn a_changing_current_is_felt_and_the_contact_holds() {
 /// thrust-based estimate, held from the touch, cannot follow: in a current fluctuating by
 /// 0.1 m/s the changed current's drag on the links leaves the identification (its median error
 /// 0.21 against 0.75 N·m on seed 1), and the rate of the track's estimate gives the IDP the
-/// water's acceleration (the 95 % point 0.44 N·m, 0.58 without it) and the stabilisation the
-/// thrust that cancels its push on the hull (‖r‖ 11 mm, 18 without it); the contact keeps the
-/// seed's figures.
+/// water's acceleration and the stabilisation the thrust that cancels its push on the hull
+/// (with the rate, the 95 % point 0.44 N·m and ‖r‖ 11 mm; 0.58 N·m and 18 mm without it); the
+/// contact keeps the seed's figures.
 #[test]
 fn a_water_track_follows_a_changing_current() {
     let current = "[sim.scenario]\ncurrent_variation_m_s = [0.1, 0.1, 0.025]";

@@ -70,7 +70,8 @@ pub struct VehicleControlConfig {
     /// (`current_filter_s = 0` assumes still water and leaves the track unused).
     pub water_track_filter_s: f64,
     /// Time constant of the low-pass on the rate of that estimate, the water's acceleration
-    /// the IDP then takes, s (0: the IDP takes the water as not accelerating).
+    /// that the IDP then takes and whose push on the hull the stabilisation cancels, s (0: the
+    /// water taken as not accelerating).
     pub water_track_rate_filter_s: f64,
 }
 
@@ -534,7 +535,8 @@ mod tests {
     /// Water whose velocity grows steadily: once the two lags have passed, the estimate of the
     /// water's acceleration is that acceleration (the derivative of a ramp through a lag is
     /// the ramp's slope), and the stabilisation adds the thrust that cancels its push on the
-    /// hull, `(ρ∇ + M_A) ċ` at the centre of buoyancy, from the controllers' model; without a
+    /// hull (Morison's `(ρ∇ + M_A) ċ` at the centre of buoyancy, so the thrust `−(ρ∇ + M_A) ċ`),
+    /// from the controllers' model; without a
     /// water track, or with the rate's filter off, neither.
     #[test]
     fn a_water_track_gives_the_water_s_acceleration() {
