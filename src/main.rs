@@ -56,7 +56,7 @@ fn stop_cleanly_on_signals() {
     use std::io::{IsTerminal, Write};
     let wanted: Vec<i32> = [SIGINT, SIGTERM, SIGHUP]
         .into_iter()
-        .filter(|s| !ignored(*s))
+        .filter(|s| !uvms::output::signal_ignored_at_start(*s))
         .collect();
     let mut signals = match signal_hook::iterator::Signals::new(&wanted) {
         Ok(s) => s,
@@ -81,18 +81,4 @@ fn stop_cleanly_on_signals() {
             std::process::exit(128 + signal);
         }
     });
-}
-
-/// Whether the process was started with `signal` ignored (Linux's `/proc/self/status`,
-/// `SigIgn`; elsewhere none is taken as ignored).
-#[cfg(unix)]
-fn ignored(signal: i32) -> bool {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find_map(|l| l.strip_prefix("SigIgn:"))
-                .and_then(|mask| u64::from_str_radix(mask.trim(), 16).ok())
-        })
-        .is_some_and(|mask| (mask >> (signal - 1)) & 1 == 1)
 }

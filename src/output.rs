@@ -70,6 +70,20 @@ pub fn remove_unfinished() -> MutexGuard<'static, Vec<PathBuf>> {
     list
 }
 
+/// Whether this process was started with `signal` ignored (Linux's `/proc/self/status`,
+/// `SigIgn`; elsewhere none is taken as ignored): `nohup`'s SIGHUP, a background job's SIGINT,
+/// which an interrupted run leaves ignored (and a child inherits).
+pub fn signal_ignored_at_start(signal: i32) -> bool {
+    fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("SigIgn:"))
+                .and_then(|mask| u64::from_str_radix(mask.trim(), 16).ok())
+        })
+        .is_some_and(|mask| signal >= 1 && (mask >> (signal - 1)) & 1 == 1)
+}
+
 /// A folder the run writes its products into.
 #[derive(Debug, Clone)]
 pub struct OutDir {

@@ -107,23 +107,10 @@ fn interrupt_while_writing(signal: &str, number: i32) -> bool {
     true
 }
 
-/// Whether this test process was started with `signal` ignored (Linux's `SigIgn`): a child
-/// inherits it, and `uvms` then leaves it ignored, as it should.
-fn inherited_ignored(signal: i32) -> bool {
-    fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find_map(|l| l.strip_prefix("SigIgn:"))
-                .and_then(|m| u64::from_str_radix(m.trim(), 16).ok())
-        })
-        .is_some_and(|mask| (mask >> (signal - 1)) & 1 == 1)
-}
-
 #[test]
 fn a_signal_stops_the_run_and_removes_the_file_being_written() {
     for (signal, number) in [("INT", 2), ("TERM", 15)] {
-        if inherited_ignored(number) {
+        if uvms::output::signal_ignored_at_start(number) {
             eprintln!(
                 "note: SIG{signal} is ignored in this test process (a background job?): its case is skipped"
             );
