@@ -107,7 +107,7 @@ impl OutDir {
     ///
     /// # Errors
     /// [`Error::Input`] if an input would be overwritten, if `dir` exists and is not a folder,
-    /// or if it cannot be created.
+    /// or if it cannot be created or written in.
     pub fn create(dir: &Path, inputs: &[&Path], products: &[&'static str]) -> Result<Self> {
         if dir.exists() && !dir.is_dir() {
             return Err(Error::input(dir.display(), "--out exists and is not a folder"));
@@ -129,6 +129,11 @@ impl OutDir {
         }
         fs::create_dir_all(dir)
             .map_err(|e| Error::input(dir.display(), format!("cannot create the output folder: {e}")))?;
+        // A folder the command could not write in is found before any stage runs.
+        let (probe, file) = Unfinished::create(dir.join(temporary("write-check")))
+            .map_err(|e| Error::input(dir.display(), format!("cannot write in the output folder: {e}")))?;
+        drop(file);
+        drop(probe);
         Ok(OutDir {
             dir: dir.to_path_buf(),
             products,
@@ -219,6 +224,21 @@ mod tests {
             .unwrap_err();
         assert_eq!(err.exit_code(), 1);
         assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    /// Found before any stage runs (an unwritable `--out` failed only at the first product,
+    /// after the stages' work); the check leaves no file behind (see the test above).
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_folder_it_cannot_write_in_is_bad_input() {
+        // procfs takes no new file whoever asks, root too (unlike a folder's permissions).
+        let err = OutDir::create(Path::new("/proc/self"), &[], &["a.txt"]).unwrap_err();
+        assert_eq!(err.exit_code(), 2);
+        assert!(
+            err.to_string()
+                .starts_with("/proc/self: cannot write in the output folder"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -617,6 +617,19 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
             "[sim.scenario]\ncurrent_smoothing_s = 1e6",
             "variant.toml: sim.scenario.current_smoothing_s: must be at most 1e5 s",
         ),
+        // A ping rate past the control rate (a typo of 1e8 Hz drew 10⁹ pings at the start).
+        (
+            "[sim.sensors]\nwater_track_rate_hz = 1e8",
+            "variant.toml: sim.sensors.water_track_rate_hz: must not exceed sim.control_rate_hz",
+        ),
+        // A controllers' model that is none (it was named as the model file's key).
+        (
+            "[sim.controller_model]\nlink_mass_scale = 1e8",
+            "sim.controller_model: the plant's model with these scales is none",
+        ),
+        // What only the plan tells: found once it is made, before its stage writes (the
+        // perception's products were written).
+        ("[plan.tool]\nmax_rate_deg_s = 1e-9", "sim: the run could take"),
     ] {
         let p = variant(dir.path(), extra);
         let o5 = dir.path().join("o5");
@@ -624,7 +637,9 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{err}");
         assert!(err.contains(named), "{err}");
-        assert!(!o5.exists(), "{extra}: files left");
+        // No file (the plan's check comes once `--out` is made: an empty folder).
+        let left = std::fs::read_dir(&o5).map_or(0, |d| d.count());
+        assert_eq!(left, 0, "{extra}: files left");
     }
     // Found before the first stage runs: nothing written.
     assert!(
@@ -644,7 +659,7 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     let o6 = dir.path().join("o6");
     let err = refused(&["run", p6.to_str().unwrap(), "--out", o6.to_str().unwrap()], 2);
     assert!(
-        err.contains("vehicle_damping_scale: the controllers' estimate of the current"),
+        err.contains("sim.controller_model: the controllers' estimate of the current"),
         "{err}"
     );
     let p3 = variant(dir.path(), "");

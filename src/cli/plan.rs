@@ -20,6 +20,7 @@ use crate::perception::{CheckOptions, PerceptionConfig, check, clean};
 use crate::plan::patterns::PatternKind;
 use crate::plan::{ObjectAxes, ObjectInput, PlanConfig, PlanInput, PlanReport, plan};
 use crate::segment::seabed::find_seabed;
+use crate::trajectory::Trajectory;
 use crate::triangulate::triangulate_view;
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -165,7 +166,7 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
     files.extend(args.config.as_deref());
     files.extend(cfg.plan.polyline.file.as_deref());
     let out = OutDir::create(&args.out, &files, &products())?;
-    let mut stage = plan_stage(&inputs, &cfg, &out)?;
+    let mut stage = plan_stage(&inputs, &cfg, &out, &|_| Ok(()))?;
     out.write_toml("config.toml", &cfg)?;
     let _ = writeln!(
         stage.text,
@@ -231,7 +232,7 @@ pub struct PlanStage {
     /// The readable account.
     pub text: String,
     /// The trajectory (world frame).
-    pub trajectory: crate::trajectory::Trajectory,
+    pub trajectory: Trajectory,
     /// The surface the trajectory was planned on as triangulated from the scan (scan frame): the
     /// object's, or the seabed's for the line pattern; `None` for a line on a seabed the
     /// segmentation found no plane of.
@@ -241,11 +242,17 @@ pub struct PlanStage {
 }
 
 /// Segment + check + plan: writes what `uvms check` writes, `trajectory.csv` and
-/// `trajectory.ply` into `out`.
+/// `trajectory.ply` into `out`, once `accept` has taken the planned trajectory (a later
+/// stage's check of it, before anything is written).
 ///
 /// # Errors
-/// As [`run`].
-pub fn plan_stage(args: &PlanInputs, cfg: &PlanCommandConfig, out: &OutDir) -> Result<PlanStage> {
+/// As [`run`], and `accept`'s.
+pub fn plan_stage(
+    args: &PlanInputs,
+    cfg: &PlanCommandConfig,
+    out: &OutDir,
+    accept: &dyn Fn(&Trajectory) -> Result<()>,
+) -> Result<PlanStage> {
     cfg.plan.validate()?;
     let line = cfg.plan.pattern == PatternKind::Line;
     if args.reference.is_none() && !line {
@@ -309,6 +316,7 @@ pub fn plan_stage(args: &PlanInputs, cfg: &PlanCommandConfig, out: &OutDir) -> R
                 seabed_surface: seabed.as_ref(),
             };
             let p = plan(&input, &cfg.plan)?;
+            accept(&p.trajectory)?;
             text += &write_check_products(out, &result, reference)?;
             let scanned = if line { seabed } else { Some(result.scan_surface) };
             (p.report, p.trajectory, scanned, Some(result.reference_surface))
@@ -327,6 +335,7 @@ pub fn plan_stage(args: &PlanInputs, cfg: &PlanCommandConfig, out: &OutDir) -> R
                 seabed_surface: Some(&seabed),
             };
             let p = plan(&input, &cfg.plan)?;
+            accept(&p.trajectory)?;
             (p.report, p.trajectory, Some(seabed), None)
         }
     };

@@ -21,7 +21,7 @@ use crate::output::OutDir;
 use crate::perception::PerceptionConfig;
 use crate::plan::PlanConfig;
 use crate::plan::patterns::PatternKind;
-use crate::sim::{SimConfig, SurfaceFrame, SurfaceSource};
+use crate::sim::{SimConfig, SurfaceFrame, SurfaceSource, check_trajectory};
 use crate::trajectory::{Phase, Trajectory};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
@@ -179,7 +179,11 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
         perception: p.perception.clone(),
         plan: p.plan.clone(),
     };
-    let planned = plan_stage(&p.input, &plan_cfg, &out)?;
+    // What only the plan tells (the run's length, the settling time against the contact) is
+    // checked before the plan's stage writes.
+    let planned = plan_stage(&p.input, &plan_cfg, &out, &|t| {
+        check_trajectory(t, &p.sim).map(|_| ())
+    })?;
     let plan_s = started.elapsed().as_secs_f64();
     stages.inc(1);
     text += &planned.text;

@@ -190,6 +190,7 @@ pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs
     Arm::new(&model.arm, &model.environment)?
         .check_puma_structure()
         .map_err(|e| Error::input(origin, e))?;
+    crate::sim::controllers_model(cfg, &model)?;
     let inputs = SimInputs {
         mesh: None,
         model,

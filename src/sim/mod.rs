@@ -355,11 +355,19 @@ impl SimConfig {
             format!("must be at most 100000 Hz, got {}", shown(self.control_rate_hz)),
         )?;
         positive("sim.log_rate_hz", self.log_rate_hz)?;
-        if self.log_rate_hz > self.control_rate_hz {
-            return Err(Error::input(
-                "sim.log_rate_hz",
-                "must not exceed sim.control_rate_hz",
-            ));
+        self.sensors.validate()?;
+        // What is logged or read happens at most once a control period.
+        for (key, rate) in [
+            ("sim.log_rate_hz", self.log_rate_hz),
+            ("sim.sensors.vision_rate_hz", self.sensors.vision_rate_hz),
+            (
+                "sim.sensors.water_track_rate_hz",
+                self.sensors.water_track_rate_hz,
+            ),
+        ] {
+            if rate > self.control_rate_hz {
+                return Err(Error::input(key, "must not exceed sim.control_rate_hz"));
+            }
         }
         if !(1..=1000).contains(&self.plant_substeps) {
             return Err(Error::input("sim.plant_substeps", "must be between 1 and 1000"));
@@ -423,7 +431,6 @@ impl SimConfig {
         non_negative("sim.dwell.hold_s", self.dwell.hold_s)?;
         non_negative("sim.dwell.max_wait_s", self.dwell.max_wait_s)?;
         self.contact.validate()?;
-        self.sensors.validate()?;
         self.navigation.validate()?;
         self.icu.validate()?;
         self.force.validate()?;
@@ -502,47 +509,11 @@ pub fn simulate(
     progress: &mut dyn FnMut(f64),
 ) -> Result<SimOutput> {
     cfg.validate()?;
-    let (Some(first), Some(last)) = (trajectory.samples.first(), trajectory.samples.last()) else {
-        return Err(Error::input("trajectory", "has no samples"));
-    };
-    let (t0, t_end) = (first.t, last.t);
-    // The longest run the trajectory, the tail and the dwell's wait can make, in periods.
-    let periods = (t_end - t0 + cfg.tail_s + cfg.dwell.max_wait_s) * cfg.control_rate_hz;
-    if periods.is_nan() || periods > MAX_PERIODS {
-        return Err(Error::input(
-            "sim",
-            format!(
-                "the run could take {periods:.3e} control periods (trajectory {:.3e} s, sim.tail_s {:.3e} s, sim.dwell.max_wait_s {:.3e} s at sim.control_rate_hz {}): at most {MAX_PERIODS:.0e}",
-                t_end - t0,
-                cfg.tail_s,
-                cfg.dwell.max_wait_s,
-                cfg.control_rate_hz
-            ),
-        ));
-    }
-    // The settled force is measured from `settle_time_s` after the first contact (about the
-    // dwell's start) to the contact phase's end: a settling time as long leaves nothing of it.
-    let touching = trajectory
-        .samples
-        .iter()
-        .find(|s| matches!(s.phase, Phase::Dwell | Phase::Contact));
-    if let (Some(start), Some(end)) = (touching, trajectory.phase(Phase::Contact).last())
-        && cfg.settle_time_s >= end.t - start.t
-    {
-        return Err(Error::input(
-            "sim.settle_time_s",
-            format!(
-                "{} s from the first contact would outlast the trajectory's dwell and contact phases ({:.2} s): no settled force would be left to measure",
-                cfg.settle_time_s,
-                end.t - start.t
-            ),
-        ));
-    }
+    let (t0, t_end) = check_trajectory(trajectory, cfg)?;
     check_plant_model(plant_model)?;
     let mut plant_model = plant_model.clone();
     plant_model.environment.current = cfg.scenario.current_m_s;
-    let ctrl_model = cfg.controller_model.apply(&plant_model);
-    let ctrl = Multibody::new(&ctrl_model)?;
+    let (ctrl_model, ctrl) = controllers_model(cfg, &plant_model)?;
     if cfg.vehicle.current_filter_s > 0.0 && ctrl.vehicle.velocity_against_drag(&Vector3::zeros()).is_none() {
         return Err(Error::input(
             "sim.vehicle.current_filter_s",
@@ -631,9 +602,9 @@ pub fn simulate(
     let speed = current.norm();
     if speed.is_nan() || speed > MAX_CURRENT_M_S {
         return Err(Error::input(
-            "sim.controller_model.vehicle_damping_scale",
+            "sim.controller_model",
             format!(
-                "the controllers' estimate of the current at the station held before the run is {} m/s, faster than any sea: their vehicle's drag (the model's damping times this scale) is too weak to read the current from the thrust (or set [sim.vehicle] current_filter_s = 0 to assume still water)",
+                "the controllers' estimate of the current at the station held before the run is {} m/s, faster than any sea: their vehicle's drag (the model's damping times vehicle_damping_scale) is too weak against their links' (times link_hydro_scale) to read the current from the thrust (or set [sim.vehicle] current_filter_s = 0 to assume still water)",
                 shown_to(speed, 2)
             ),
         ));
@@ -982,6 +953,68 @@ pub fn check_plant_model(model: &UvmsModel) -> Result<()> {
         "environment.current",
         "the simulation's sea current is [sim.scenario] current_m_s; set it there and leave the model's at zero",
     )
+}
+
+/// What only the trajectory tells of a run configured by `cfg`: its length in control periods
+/// (at most 10⁸) and a settling time that leaves a settled force to measure. `uvms run` asks
+/// this of the plan before any stage writes. Returns the trajectory's first and last times.
+///
+/// # Errors
+/// [`Error::Input`] naming the trajectory or the key.
+pub fn check_trajectory(trajectory: &Trajectory, cfg: &SimConfig) -> Result<(f64, f64)> {
+    let (Some(first), Some(last)) = (trajectory.samples.first(), trajectory.samples.last()) else {
+        return Err(Error::input("trajectory", "has no samples"));
+    };
+    let (t0, t_end) = (first.t, last.t);
+    // The longest run the trajectory, the tail and the dwell's wait can make, in periods.
+    let periods = (t_end - t0 + cfg.tail_s + cfg.dwell.max_wait_s) * cfg.control_rate_hz;
+    if periods.is_nan() || periods > MAX_PERIODS {
+        return Err(Error::input(
+            "sim",
+            format!(
+                "the run could take {periods:.3e} control periods (trajectory {:.3e} s, sim.tail_s {:.3e} s, sim.dwell.max_wait_s {:.3e} s at sim.control_rate_hz {}): at most {MAX_PERIODS:.0e}",
+                t_end - t0,
+                cfg.tail_s,
+                cfg.dwell.max_wait_s,
+                cfg.control_rate_hz
+            ),
+        ));
+    }
+    // The settled force is measured from `settle_time_s` after the first contact (about the
+    // dwell's start) to the contact phase's end: a settling time as long leaves nothing of it.
+    let touching = trajectory
+        .samples
+        .iter()
+        .find(|s| matches!(s.phase, Phase::Dwell | Phase::Contact));
+    if let (Some(start), Some(end)) = (touching, trajectory.phase(Phase::Contact).last())
+        && cfg.settle_time_s >= end.t - start.t
+    {
+        return Err(Error::input(
+            "sim.settle_time_s",
+            format!(
+                "{} s from the first contact would outlast the trajectory's dwell and contact phases ({:.2} s): no settled force would be left to measure",
+                cfg.settle_time_s,
+                end.t - start.t
+            ),
+        ));
+    }
+    Ok((t0, t_end))
+}
+
+/// The controllers' model of the system: the plant's `plant_model` with `[sim.controller_model]`'s
+/// scales, and its multibody.
+///
+/// # Errors
+/// [`Error::Input`] naming `sim.controller_model` if the scaled model is none.
+pub fn controllers_model(cfg: &SimConfig, plant_model: &UvmsModel) -> Result<(UvmsModel, Multibody)> {
+    let model = cfg.controller_model.apply(plant_model);
+    let system = Multibody::new(&model).map_err(|e| {
+        Error::input(
+            "sim.controller_model",
+            format!("the plant's model with these scales is none: {e}"),
+        )
+    })?;
+    Ok((model, system))
 }
 
 /// The longest tail, dwell wait and current correlation time, s: about a day, the longest run
