@@ -70,7 +70,10 @@ impl SurfaceConfig {
         crate::config::require(
             self.max_view_angle_deg > 0.0 && self.max_view_angle_deg <= 90.0,
             "surface.max_view_angle_deg",
-            format!("must be in (0, 90] degrees, got {}", self.max_view_angle_deg),
+            format!(
+                "must be in (0, 90] degrees, got {}",
+                crate::config::shown(self.max_view_angle_deg)
+            ),
         )?;
         crate::config::count_between(
             "surface.smoothing_neighbours",

@@ -3,6 +3,7 @@
 //! reported exactly as every other command would report it.
 
 use super::{Ctx, Report};
+use crate::config::shown_xyz;
 use crate::error::Result;
 use crate::io::ply::read_ply;
 use serde_json::json;
@@ -61,18 +62,14 @@ pub fn run(args: &InfoArgs, _ctx: &Ctx) -> Result<Report> {
     }
     match (info.bbox_min, info.bbox_max) {
         (Some(lo), Some(hi)) => {
+            // Far coordinates (a stray point at 1e300) in exponent form, not 300 digits.
+            let extent = [0, 1, 2].map(|i| hi[i] - lo[i]);
             let _ = writeln!(
                 text,
-                "  bbox min     [{:.4}, {:.4}, {:.4}] m\n  bbox max     [{:.4}, {:.4}, {:.4}] m\n  extent       [{:.4}, {:.4}, {:.4}] m",
-                lo[0],
-                lo[1],
-                lo[2],
-                hi[0],
-                hi[1],
-                hi[2],
-                hi[0] - lo[0],
-                hi[1] - lo[1],
-                hi[2] - lo[2]
+                "  bbox min     {} m\n  bbox max     {} m\n  extent       {} m",
+                shown_xyz(&lo, 4),
+                shown_xyz(&hi, 4),
+                shown_xyz(&extent, 4)
             );
         }
         _ => {

@@ -157,6 +157,20 @@ pub struct CropResult {
     pub kept: Vec<usize>,
 }
 
+/// The error of a voxel `v` too small for the cloud spanning `lo` to `hi`: its extent shows a
+/// point far from the rest (which `clean.max_range_m` drops).
+fn too_small(v: f64, lo: &Point3<f64>, hi: &Point3<f64>, why: &str) -> Error {
+    let extent = [0, 1, 2].map(|k| hi[k] - lo[k]);
+    Error::input(
+        "clean.voxel_m",
+        format!(
+            "{} m is too small for the cloud's extent{why}, {} m: a point far from the rest? (clean.max_range_m drops those beyond a range)",
+            shown(v),
+            crate::config::shown_xyz(&extent, 3)
+        ),
+    )
+}
+
 /// Voxel down-sampling: the centroid of every occupied voxel.
 ///
 /// # Errors
@@ -171,7 +185,7 @@ pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<Voxe
     let v = config.voxel_m;
     if !(v.is_finite() && v > 0.0) {
         return Err(Error::input(
-            "voxel_m",
+            "clean.voxel_m",
             format!("must be a positive length in metres, got {}", shown(v)),
         ));
     }
@@ -201,21 +215,12 @@ pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<Voxe
     for k in 0..3 {
         let span = cell(hi[k]) - base[k];
         if span >= 2f64.powi(63) {
-            return Err(Error::input(
-                "voxel_m",
-                format!("{} m is too small for the cloud's extent", shown(v)),
-            ));
+            return Err(too_small(v, &lo, &hi, ""));
         }
         bits[k] = 64 - (span as u64).leading_zeros();
     }
     if bits.iter().sum::<u32>() > 64 {
-        return Err(Error::input(
-            "voxel_m",
-            format!(
-                "{} m is too small for the cloud's extent (more than 2^64 voxels)",
-                shown(v)
-            ),
-        ));
+        return Err(too_small(v, &lo, &hi, " (more than 2^64 voxels)"));
     }
     let (sy, sz) = (bits[2], bits[1] + bits[2]);
     let key = |p: &Point3<f64>| {
@@ -474,6 +479,17 @@ mod tests {
                 .is_empty()
         );
         assert!(voxel_downsample(&PointCloud::default(), &VoxelConfig { voxel_m: 0.0 }).is_err());
+        // One point far from the rest: the key and the extent that shows it, one line.
+        let far = PointCloud::from_points(vec![Point3::origin(), Point3::new(1e9, 1e9, 1e9)]);
+        let e = voxel_downsample(&far, &VoxelConfig { voxel_m: 0.005 }).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        assert!(
+            e.to_string()
+                .starts_with("clean.voxel_m: 0.005 m is too small for the cloud's extent")
+                && e.to_string()
+                    .contains("[1.000e9, 1.000e9, 1.000e9] m: a point far from the rest?"),
+            "{e}"
+        );
     }
 
     #[test]

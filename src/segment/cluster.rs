@@ -66,7 +66,7 @@ impl ClusterConfig {
             "cluster.span_quantile",
             format!(
                 "must be a quantile in [0, 0.5) (spans run from q to 1 − q), got {}",
-                self.span_quantile
+                crate::config::shown(self.span_quantile)
             ),
         )
     }

@@ -21,7 +21,7 @@
 //! signed distances, positive on the camera's side. Units: metres.
 
 use crate::cloud::pca::{mean_covariance_of, median, sorted_eigen};
-use crate::config::{count_between, positive};
+use crate::config::{count_between, positive, shown};
 use crate::error::{Error, Result};
 use nalgebra::{Point3, Vector3};
 use rand::rngs::ChaCha8Rng;
@@ -513,7 +513,7 @@ impl SeabedConfig {
                 "threshold_m",
                 format!(
                     "must be a finite number ≥ 0 (0 = estimate from the data), got {}",
-                    self.threshold_m
+                    shown(self.threshold_m)
                 ),
             );
         }
@@ -526,7 +526,8 @@ impl SeabedConfig {
                 "min_threshold_m",
                 format!(
                     "must be > 0 and ≤ seabed.max_threshold_m ({}), got {}",
-                    self.max_threshold_m, self.min_threshold_m
+                    shown(self.max_threshold_m),
+                    shown(self.min_threshold_m)
                 ),
             );
         }
@@ -534,13 +535,13 @@ impl SeabedConfig {
         if !(self.confidence > 0.0 && self.confidence < 1.0) {
             return bad(
                 "confidence",
-                format!("must be in (0, 1), got {}", self.confidence),
+                format!("must be in (0, 1), got {}", shown(self.confidence)),
             );
         }
         if !(self.up_tolerance_deg > 0.0 && self.up_tolerance_deg <= 90.0) {
             return bad(
                 "up_tolerance_deg",
-                format!("must be in (0, 90] degrees, got {}", self.up_tolerance_deg),
+                format!("must be in (0, 90] degrees, got {}", shown(self.up_tolerance_deg)),
             );
         }
         count_between(
@@ -555,7 +556,7 @@ impl SeabedConfig {
                 "object_min_height_m",
                 format!(
                     "must be a finite number ≥ 0 (0 = the inlier threshold), got {}",
-                    self.object_min_height_m
+                    shown(self.object_min_height_m)
                 ),
             );
         }
@@ -566,7 +567,8 @@ impl SeabedConfig {
                 "object_max_height_m",
                 format!(
                     "must be 0 (no limit) or a finite number > seabed.object_min_height_m ({}), got {}",
-                    self.object_min_height_m, self.object_max_height_m
+                    shown(self.object_min_height_m),
+                    shown(self.object_max_height_m)
                 ),
             );
         }

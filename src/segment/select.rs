@@ -42,7 +42,10 @@ impl SelectConfig {
         crate::config::require(
             self.max_span_ratio > 1.0 && self.max_span_ratio.is_finite(),
             "select.max_span_ratio",
-            format!("must be a finite number > 1, got {}", self.max_span_ratio),
+            format!(
+                "must be a finite number > 1, got {}",
+                crate::config::shown(self.max_span_ratio)
+            ),
         )?;
         crate::config::non_negative("select.depth_weight", self.depth_weight)
     }

@@ -468,7 +468,8 @@ impl SynthConfig {
         range(st.size_m, "stones.size_m", 0.005, 1.0)?;
         range(st.embed, "stones.embed", 0.0, 0.9)?;
         non_negative(st.clearance_m, "stones.clearance_m")?;
-        Ok(())
+        // What the checks above leave unbounded (a cell size, a clearance...).
+        crate::config::within_range(self, "config ")
     }
 
     /// The configuration with every seed-drawn key filled in (see the module docs).
@@ -538,6 +539,11 @@ mod tests {
                 .to_string()
                 .contains("object.bottle.length_m")
         );
+        // A value no check above bounds, past any scene (it was taken, and the seabed vanished).
+        let c: SynthConfig = from_toml_str("[seabed]\ncell_m = 1e300\n", "x.toml").unwrap();
+        let e = c.validate();
+        assert!(format!("{e:?}").contains("1e300 is beyond"), "{e:?}");
+        crate::perception::assert_bad_input(e, "config seabed.cell_m");
         let e = from_toml_str::<SynthConfig>("[sensor]\ndisparity_sigma = 0.1\n", "x.toml").unwrap_err();
         assert!(e.to_string().contains("disparity_sigma"), "{e}");
     }
