@@ -57,6 +57,11 @@ impl Phase {
     /// Every phase, in the order a trajectory goes through them.
     pub const ALL: [Phase; 4] = [Phase::Approach, Phase::Dwell, Phase::Contact, Phase::Retreat];
 
+    /// Its place in [`Phase::ALL`].
+    fn rank(self) -> usize {
+        self as usize
+    }
+
     /// The phase's name in the CSV file.
     pub fn as_str(self) -> &'static str {
         match self {
@@ -254,7 +259,7 @@ impl Trajectory {
     /// [`Error::Input`] naming the file, line and column of the first problem: unreadable file,
     /// wrong header, wrong number of columns, a value that is not a finite number, time not
     /// strictly increasing or negative, a quaternion or `k` that is not unit length, a negative
-    /// force, an unknown phase, a fallback flag other than 0 or 1, no samples.
+    /// force, an unknown phase or one out of order, a fallback flag other than 0 or 1, no samples.
     pub fn read_csv(path: &Path) -> Result<Trajectory> {
         let text = crate::config::read_text(path, "a trajectory CSV file")?;
         Self::from_csv_str(&text, &path.display().to_string())
@@ -267,6 +272,8 @@ impl Trajectory {
     pub fn from_csv_str(text: &str, origin: &str) -> Result<Trajectory> {
         let mut traj = Trajectory::default();
         let mut header_seen = false;
+        // A spreadsheet's byte-order mark before the first line.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         for (i, raw) in text.lines().enumerate() {
             let line_no = i + 1;
             let line = raw.trim();
@@ -295,13 +302,23 @@ impl Trajectory {
                 continue;
             }
             let s = parse_row(line, &format!("{origin} line {line_no}"))?;
-            if let Some(prev) = traj.samples.last()
-                && s.t <= prev.t
-            {
-                return Err(Error::input(
-                    format!("{origin} line {line_no} column 1 (t_s)"),
-                    format!("time {} does not increase (previous {})", s.t, prev.t),
-                ));
+            if let Some(prev) = traj.samples.last() {
+                if s.t <= prev.t {
+                    return Err(Error::input(
+                        format!("{origin} line {line_no} column 1 (t_s)"),
+                        format!("time {} does not increase (previous {})", s.t, prev.t),
+                    ));
+                }
+                if s.phase.rank() < prev.phase.rank() {
+                    return Err(Error::input(
+                        format!("{origin} line {line_no} column 13 (phase)"),
+                        format!(
+                            "{} after {}: the phases run approach, dwell, contact, retreat, in this order",
+                            s.phase.as_str(),
+                            prev.phase.as_str()
+                        ),
+                    ));
+                }
             }
             traj.samples.push(s);
         }
@@ -487,12 +504,17 @@ mod tests {
         assert!(corrupt(2, 11, "-3").contains("column 12 (force_n)"));
         assert!(corrupt(2, 11, "1e300").contains("column 12 (force_n): 1e300 is beyond"));
         assert!(corrupt(3, 12, "hover").contains("column 13 (phase)"));
+        // A phase out of order (it ran: a retreat amid the contact).
+        assert!(corrupt(2, 12, "approach").contains("column 13 (phase): approach after contact"));
         assert!(corrupt(3, 13, "yes").contains("column 14 (fallback)"));
     }
 
     #[test]
     fn reader_rejects_bad_shapes() {
         let text = csv(&demo());
+        // A spreadsheet's byte-order mark is no shape.
+        let bom = Trajectory::from_csv_str(&format!("\u{feff}{text}"), "t.csv").unwrap();
+        assert_eq!(bom.samples.len(), demo().samples.len());
         let no_header = text.replace("t_s,x_m", "time,x_m");
         assert!(
             Trajectory::from_csv_str(&no_header, "t.csv")

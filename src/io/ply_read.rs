@@ -240,7 +240,13 @@ fn parse_header(bytes: &[u8]) -> std::result::Result<Header, String> {
         };
         let rest: Vec<&str> = words.collect();
         match keyword {
-            "end_header" => break,
+            "end_header" if rest.is_empty() => break,
+            "end_header" => {
+                return Err(at(format!(
+                    "'end_header' followed by '{}' on its line",
+                    rest.join(" ").escape_default()
+                )));
+            }
             "comment" | "obj_info" => {}
             "format" => {
                 if encoding.is_some() {
@@ -258,13 +264,19 @@ fn parse_header(bytes: &[u8]) -> std::result::Result<Header, String> {
                     }
                 };
                 match rest.get(1) {
-                    Some(v) if v.starts_with("1.") || *v == "1" => {}
+                    Some(v) if v.parse::<f64>() == Ok(1.0) => {}
                     v => {
                         return Err(at(format!(
                             "unsupported format version '{}' (expected 1.0)",
                             v.unwrap_or(&"").escape_default()
                         )));
                     }
+                }
+                if rest.len() > 2 {
+                    return Err(at(format!(
+                        "malformed format line '{}' (expected 'format ENCODING 1.0')",
+                        line.escape_default()
+                    )));
                 }
                 encoding = Some(enc);
             }
@@ -1359,6 +1371,41 @@ mod tests {
         let e = parse(&ascii_file(&format!("{head}{body}")), faces).err().unwrap();
         assert!(!e.contains('\n'), "not one line: {e}");
         e
+    }
+
+    /// The header's own lines are as strict as its element and property lines: words after
+    /// the format or `end_header` (they were taken), a version not 1.0 (a NUL after it passed).
+    #[test]
+    fn header_lines_with_trailing_words_are_an_error() {
+        let body = "0 0 0\n1 1 1\n2 2 2\n";
+        for (head, why) in [
+            (
+                XYZ3.replace("ascii 1.0", "ascii 1.0 junk"),
+                "header line 2: malformed format line",
+            ),
+            (
+                XYZ3.replace("ascii 1.0", "ascii 1.0\0"),
+                "header line 2: unsupported format version",
+            ),
+            (
+                XYZ3.replace("ascii 1.0", "ascii 1.1"),
+                "header line 2: unsupported format version",
+            ),
+            (
+                XYZ3.replace("end_header", "end_header junk"),
+                "header line 7: 'end_header' followed by 'junk'",
+            ),
+        ] {
+            let e = ascii_err(&head, body, Faces::Skip);
+            assert!(e.starts_with(why), "{e}");
+        }
+        assert!(
+            parse(
+                &ascii_file(&format!("{}{body}", XYZ3.replace("1.0", "1"))),
+                Faces::Skip
+            )
+            .is_ok()
+        );
     }
 
     #[test]
