@@ -23,7 +23,16 @@ pub fn from_toml_str<T: DeserializeOwned + Serialize>(text: &str, origin: &str) 
         e.span()
             .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
     };
-    let document = toml::Deserializer::parse(text).map_err(|e| Error::input(at(line_of(&e)), e.message()))?;
+    // A syntax error's message names no key ("duplicate key"): the text it points at does.
+    let document = toml::Deserializer::parse(text).map_err(|e| {
+        let snippet = e.span().and_then(|s| text.get(s)).map(str::trim).unwrap_or("");
+        let message = if snippet.is_empty() || snippet.contains('\n') || snippet.len() > 60 {
+            e.message().to_string()
+        } else {
+            format!("{} (at `{snippet}`)", e.message())
+        };
+        Error::input(at(line_of(&e)), message)
+    })?;
     // The key the value belongs to, as the tables and arrays lead to it (`sim.hover.samples`):
     // serde's own messages ("invalid length 2, expected an array of length 3", "expected
     // usize") do not say which.
@@ -475,5 +484,8 @@ mod tests {
         assert_eq!(err.exit_code(), 2);
         assert!(msg.contains("x.toml line 3") && msg.contains("radius"), "{msg}");
         assert!(!msg.contains('\n'));
+        // A syntax error names the text it is at: which key is twice.
+        let err = from_toml_str::<Demo>("seed = 3\nseed = 4\n", "x.toml").unwrap_err();
+        assert_eq!(err.to_string(), "x.toml line 2: duplicate key (at `seed`)");
     }
 }

@@ -169,7 +169,14 @@ impl OutDir {
         let (tmp, file) =
             Unfinished::create(self.dir.join(temporary(name))).map_err(|e| Error::failed(&stage, e))?;
         let mut w = BufWriter::new(file);
-        fill(&mut w)?;
+        // A writer's own failure ("write PLY: No space left on device") names the file.
+        fill(&mut w).map_err(|e| match e {
+            Error::Failed {
+                stage: writer,
+                reason,
+            } if writer.starts_with("write") => Error::failed(&stage, reason),
+            other => other,
+        })?;
         w.flush().map_err(|e| Error::failed(&stage, e))?;
         let file = w.into_inner().map_err(|e| Error::failed(&stage, e.error()))?;
         file.sync_all().map_err(|e| Error::failed(&stage, e))?;
@@ -224,6 +231,17 @@ mod tests {
             .unwrap_err();
         assert_eq!(err.exit_code(), 1);
         assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 0);
+        // A writer's own failure names the file it was writing (a full disk said "write PLY").
+        let err = out
+            .write_with("a.txt", |_| {
+                Err(Error::failed("write PLY", "No space left on device"))
+            })
+            .unwrap_err();
+        let file = dir.path().join("a.txt");
+        assert_eq!(
+            err.to_string(),
+            format!("write {}: No space left on device", file.display())
+        );
     }
 
     /// Found before any stage runs (an unwritable `--out` failed only at the first product,

@@ -468,6 +468,19 @@ fn clear_errors() {
         set(&mut cfg);
         assert_eq!(plan(&scene.input(), &cfg).unwrap_err().exit_code(), 2);
     }
+    // A value that is no number, named by its own key (they were named together as "pattern").
+    for (set, key) in [
+        (
+            (|c: &mut PlanConfig| c.ring.station_m = f64::NAN) as fn(&mut PlanConfig),
+            "ring.station_m",
+        ),
+        (|c| c.line.offset_m[1] = f64::INFINITY, "line.offset_m[2]"),
+    ] {
+        let mut cfg = PlanConfig::default();
+        set(&mut cfg);
+        let e = plan(&scene.input(), &cfg).unwrap_err().to_string();
+        assert_eq!(e, format!("{key}: must be a finite number"));
+    }
 }
 
 #[test]

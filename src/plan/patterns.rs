@@ -258,16 +258,19 @@ pub fn validate(
     if !(ring.arc_deg.is_finite() && (0.0..=360.0).contains(&ring.arc_deg)) {
         return Err(Error::input("ring.arc_deg", "must be between 0 and 360"));
     }
-    let finite = [ring.station_m, line.heading_deg]
-        .iter()
-        .chain(&raster.offset_m)
-        .chain(&line.offset_m)
-        .all(|v| v.is_finite());
-    if !finite {
-        return Err(Error::input(
-            "pattern",
-            "station, heading and offsets must be finite",
-        ));
+    let [rx, ry] = raster.offset_m;
+    let [lx, ly] = line.offset_m;
+    for (what, v) in [
+        ("ring.station_m", ring.station_m),
+        ("line.heading_deg", line.heading_deg),
+        ("raster.offset_m[1]", rx),
+        ("raster.offset_m[2]", ry),
+        ("line.offset_m[1]", lx),
+        ("line.offset_m[2]", ly),
+    ] {
+        if !v.is_finite() {
+            return Err(Error::input(what, "must be a finite number"));
+        }
     }
     Ok(())
 }
