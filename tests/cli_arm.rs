@@ -81,6 +81,7 @@ fn bad_input_exits_2_naming_the_flag() {
     for (args, flag) in [
         (vec!["fk", "--q", "1,2,3"], "--q"),
         (vec!["fk", "--q", "0,0,0,0,0,zero"], "--q"),
+        (vec!["fk", "--q", "1e300,0,0,0,0,0"], "--q"),
         (vec!["id", "--q", "0,0,0,0,0,0", "--qd", "1,2"], "--qd"),
         (
             vec!["id", "--q", "0,0,0,0,0,0", "--gravity", "0,0,nan"],

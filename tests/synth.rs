@@ -319,8 +319,13 @@ fn bad_configurations_exit_2_naming_the_key() {
         ("[camera]\nfocal_px = -700.0\n", "bad.toml: camera.focal_px"),
         // Valid, but the camera sees nothing: no empty scan is written.
         (
-            "[camera]\nfocal_px = 1e300\n",
+            "[camera]\nfocal_px = 1e8\n",
             "bad.toml: camera: the stereo pair matched no point",
+        ),
+        // Past any camera.
+        (
+            "[camera]\nfocal_px = 1e300\n",
+            "bad.toml: camera.focal_px: 1e300 is beyond",
         ),
         ("[sensor]\ndisparity_sigma = 0.1\n", "disparity_sigma"),
         (

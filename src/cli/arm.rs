@@ -66,7 +66,7 @@ pub struct ArmArgs {
     pub pose: Option<[f64; 16]>,
 }
 
-/// `N` comma-separated finite numbers.
+/// `N` comma-separated finite numbers within ±1e9.
 fn parse_n<const N: usize>(s: &str) -> std::result::Result<[f64; N], String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     if parts.len() != N {
@@ -81,6 +81,7 @@ fn parse_n<const N: usize>(s: &str) -> std::result::Result<[f64; N], String> {
         if !o.is_finite() {
             return Err(format!("'{p}' is not a finite number"));
         }
+        crate::config::within_max(*o, || format!("'{p}'")).map_err(|e| e.to_string())?;
     }
     Ok(out)
 }
