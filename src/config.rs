@@ -29,7 +29,7 @@ pub fn from_toml_str<T: DeserializeOwned + Serialize>(text: &str, origin: &str) 
         let message = if snippet.is_empty() || snippet.contains('\n') || snippet.len() > 60 {
             e.message().to_string()
         } else {
-            format!("{} (at `{snippet}`)", e.message())
+            format!("{} (at `{}`)", e.message(), snippet.escape_debug())
         };
         Error::input(at(line_of(&e)), message)
     })?;
@@ -193,7 +193,7 @@ pub fn regular_file(path: &Path, what: &str) -> Result<()> {
     Ok(())
 }
 
-/// A text file's contents.
+/// A text file's contents, without a leading byte-order mark.
 ///
 /// # Errors
 /// [`Error::Input`] naming the file: as [`regular_file`] (the PLY reader refuses the same),
@@ -201,13 +201,18 @@ pub fn regular_file(path: &Path, what: &str) -> Result<()> {
 /// a trajectory, a pose), not the reader's "stream did not contain valid UTF-8".
 pub fn read_text(path: &Path, what: &str) -> Result<String> {
     regular_file(path, what)?;
-    std::fs::read_to_string(path).map_err(|e| {
+    let text = std::fs::read_to_string(path).map_err(|e| {
         let why = if e.kind() == std::io::ErrorKind::InvalidData {
             format!("not {what} (not UTF-8 text: a PLY or other binary file?)")
         } else {
             format!("cannot read: {e}")
         };
         Error::input(path.display(), why)
+    })?;
+    // A spreadsheet's or an editor's byte-order mark is no part of the text.
+    Ok(match text.strip_prefix('\u{feff}') {
+        Some(rest) => rest.to_string(),
+        None => text,
     })
 }
 
@@ -440,6 +445,10 @@ mod tests {
     #[test]
     fn a_directory_or_a_device_is_not_a_text_file() {
         let dir = tempfile::tempdir().unwrap();
+        // A byte-order mark is read past (a trajectory's header was "expected" after it).
+        let bom = dir.path().join("bom.csv");
+        std::fs::write(&bom, "\u{feff}t_s,x_m\n").unwrap();
+        assert_eq!(read_text(&bom, "a CSV file").unwrap(), "t_s,x_m\n");
         let e = read_text(dir.path(), "a TOML file").unwrap_err();
         assert!(e.to_string().ends_with("is a directory, not a TOML file"), "{e}");
         #[cfg(unix)]

@@ -155,7 +155,8 @@ impl OutDir {
     ///
     /// # Errors
     /// [`Error::Failed`] if `name` was not declared (the inputs were not checked against it)
-    /// or writing fails (the temporary file is removed); any error `fill` returns.
+    /// or writing fails (the temporary file is removed); any error `fill` returns, a writer's
+    /// own failure (a stage `write …`) named by the file.
     pub fn write_with(&self, name: &str, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<PathBuf> {
         let target = self.file(name);
         if !self.products.contains(&name) {

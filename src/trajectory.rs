@@ -20,7 +20,7 @@
 //! | `qw,qx,qy,qz` | unit quaternion: rotation of `G` in `W` (columns `x_G`, `y_G`, `z_G`) |
 //! | `kx,ky,kz` | unit direction of the desired force in `W` (`k = z_G`) |
 //! | `force_n` | desired force magnitude along `k`, N, ≥ 0 (0: position control only) |
-//! | `phase` | `approach`, `dwell`, `contact` or `retreat` |
+//! | `phase` | `approach`, `dwell`, `contact` or `retreat`, in this order (each may be absent) |
 //! | `fallback` | `1` if the point was projected onto the aligned reference mesh (a hole in the scan), else `0` |
 //!
 //! Consecutive quaternions have a non-negative dot product (no sign flips), so a reader can
@@ -38,8 +38,8 @@ use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vect
 use std::io::Write;
 use std::path::Path;
 
-/// The phase of the operation a sample belongs to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+/// The phase of the operation a sample belongs to, ordered as a trajectory goes through them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Phase {
     /// Moving from the stand-off towards the first contact point along `k`, no force demanded.
@@ -56,11 +56,6 @@ pub enum Phase {
 impl Phase {
     /// Every phase, in the order a trajectory goes through them.
     pub const ALL: [Phase; 4] = [Phase::Approach, Phase::Dwell, Phase::Contact, Phase::Retreat];
-
-    /// Its place in [`Phase::ALL`].
-    fn rank(self) -> usize {
-        self as usize
-    }
 
     /// The phase's name in the CSV file.
     pub fn as_str(self) -> &'static str {
@@ -272,8 +267,6 @@ impl Trajectory {
     pub fn from_csv_str(text: &str, origin: &str) -> Result<Trajectory> {
         let mut traj = Trajectory::default();
         let mut header_seen = false;
-        // A spreadsheet's byte-order mark before the first line.
-        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         for (i, raw) in text.lines().enumerate() {
             let line_no = i + 1;
             let line = raw.trim();
@@ -309,7 +302,7 @@ impl Trajectory {
                         format!("time {} does not increase (previous {})", s.t, prev.t),
                     ));
                 }
-                if s.phase.rank() < prev.phase.rank() {
+                if s.phase < prev.phase {
                     return Err(Error::input(
                         format!("{origin} line {line_no} column 13 (phase)"),
                         format!(
@@ -512,9 +505,6 @@ mod tests {
     #[test]
     fn reader_rejects_bad_shapes() {
         let text = csv(&demo());
-        // A spreadsheet's byte-order mark is no shape.
-        let bom = Trajectory::from_csv_str(&format!("\u{feff}{text}"), "t.csv").unwrap();
-        assert_eq!(bom.samples.len(), demo().samples.len());
         let no_header = text.replace("t_s,x_m", "time,x_m");
         assert!(
             Trajectory::from_csv_str(&no_header, "t.csv")

@@ -625,11 +625,8 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         // A controllers' model that is none (it was named as the model file's key).
         (
             "[sim.controller_model]\nlink_mass_scale = 1e8",
-            "sim.controller_model: the plant's model with these scales is none",
+            "variant.toml: sim.controller_model: the plant's model with these scales is none",
         ),
-        // What only the plan tells: found once it is made, before its stage writes (the
-        // perception's products were written).
-        ("[plan.tool]\nmax_rate_deg_s = 1e-9", "sim: the run could take"),
     ] {
         let p = variant(dir.path(), extra);
         let o5 = dir.path().join("o5");
@@ -637,10 +634,15 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{err}");
         assert!(err.contains(named), "{err}");
-        // No file (the plan's check comes once `--out` is made: an empty folder).
-        let left = std::fs::read_dir(&o5).map_or(0, |d| d.count());
-        assert_eq!(left, 0, "{extra}: files left");
+        assert!(!o5.exists(), "{extra}: files left");
     }
+    // What only the plan tells (a turn so slow the run would take 10¹⁴ periods): found once
+    // the plan is made, before its stage writes (the perception's products were written).
+    let p = variant(dir.path(), "[plan.tool]\nmax_rate_deg_s = 1e-9");
+    let o7 = dir.path().join("o7");
+    let err = refused(&["run", p.to_str().unwrap(), "--out", o7.to_str().unwrap()], 2);
+    assert!(err.contains("variant.toml: sim: the run could take"), "{err}");
+    assert_eq!(std::fs::read_dir(&o7).unwrap().count(), 0, "files left");
     // Found before the first stage runs: nothing written.
     assert!(
         !dir.path().join("o2").exists(),

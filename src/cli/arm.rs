@@ -46,44 +46,24 @@ pub struct ArmArgs {
     #[arg(long, value_name = "F")]
     pub model: Option<PathBuf>,
     /// Joint angles, rad.
-    #[arg(long, value_name = "Q1,..,Q6", allow_hyphen_values = true, value_parser = parse_n::<6>)]
+    #[arg(long, value_name = "Q1,..,Q6", allow_hyphen_values = true, value_parser = super::parse_numbers::<6>)]
     pub q: [f64; 6],
     /// Joint rates, rad/s (id; default 0).
-    #[arg(long, value_name = "QD1,..,QD6", allow_hyphen_values = true, value_parser = parse_n::<6>)]
+    #[arg(long, value_name = "QD1,..,QD6", allow_hyphen_values = true, value_parser = super::parse_numbers::<6>)]
     pub qd: Option<[f64; 6]>,
     /// Joint accelerations, rad/s² (id; default 0).
-    #[arg(long, value_name = "QDD1,..,QDD6", allow_hyphen_values = true, value_parser = parse_n::<6>)]
+    #[arg(long, value_name = "QDD1,..,QDD6", allow_hyphen_values = true, value_parser = super::parse_numbers::<6>)]
     pub qdd: Option<[f64; 6]>,
     /// Gravity in the base frame, m/s² (id; default: the model's, vehicle level).
-    #[arg(long, value_name = "GX,GY,GZ", allow_hyphen_values = true, value_parser = parse_n::<3>)]
+    #[arg(long, value_name = "GX,GY,GZ", allow_hyphen_values = true, value_parser = super::parse_numbers::<3>)]
     pub gravity: Option<[f64; 3]>,
     /// Velocity of the water in the base frame, m/s (id; default: the model's current, vehicle
     /// level).
-    #[arg(long, value_name = "CX,CY,CZ", allow_hyphen_values = true, value_parser = parse_n::<3>)]
+    #[arg(long, value_name = "CX,CY,CZ", allow_hyphen_values = true, value_parser = super::parse_numbers::<3>)]
     pub current: Option<[f64; 3]>,
     /// Target tool pose for ik: 16 numbers, the 4×4 base-from-tool matrix row by row.
-    #[arg(long, value_name = "T11,..,T44", allow_hyphen_values = true, value_parser = parse_n::<16>)]
+    #[arg(long, value_name = "T11,..,T44", allow_hyphen_values = true, value_parser = super::parse_numbers::<16>)]
     pub pose: Option<[f64; 16]>,
-}
-
-/// `N` comma-separated finite numbers within ±1e9.
-fn parse_n<const N: usize>(s: &str) -> std::result::Result<[f64; N], String> {
-    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-    if parts.len() != N {
-        return Err(format!(
-            "expected {N} comma-separated numbers, got {}",
-            parts.len()
-        ));
-    }
-    let mut out = [0.0; N];
-    for (o, p) in out.iter_mut().zip(&parts) {
-        *o = p.parse::<f64>().map_err(|_| format!("'{p}' is not a number"))?;
-        if !o.is_finite() {
-            return Err(format!("'{p}' is not a finite number"));
-        }
-        crate::config::within_max(*o, || format!("'{p}'")).map_err(|e| e.to_string())?;
-    }
-    Ok(out)
 }
 
 /// Runs `uvms arm`.

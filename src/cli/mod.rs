@@ -100,9 +100,39 @@ impl Ctx {
     }
 }
 
+/// `N` comma-separated finite numbers within ±1e9.
+pub(crate) fn parse_numbers<const N: usize>(s: &str) -> std::result::Result<[f64; N], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != N {
+        return Err(format!(
+            "expected {N} comma-separated numbers, got {}",
+            parts.len()
+        ));
+    }
+    let mut out = [0.0; N];
+    for (o, p) in out.iter_mut().zip(&parts) {
+        *o = p.parse::<f64>().map_err(|_| format!("'{p}' is not a number"))?;
+        if !o.is_finite() {
+            return Err(format!("'{p}' is not a finite number"));
+        }
+        crate::config::within_max(*o, || format!("'{p}'")).map_err(|e| e.to_string())?;
+    }
+    Ok(out)
+}
+
 /// How errors name a command's configuration: its file, or `configuration` (the defaults).
 pub(crate) fn config_origin(config: Option<&std::path::Path>) -> String {
     config.map_or_else(|| "configuration".into(), |p| p.display().to_string())
+}
+
+/// A stage's error about a value of the configuration file `file` (a key in `table`, starting
+/// with `key`: found only once the stage ran) named as the file's other errors are, by the
+/// file and the whole key. Other errors, and any without a file, are unchanged.
+pub(crate) fn named_in(e: Error, file: Option<&std::path::Path>, table: &str, key: &str) -> Error {
+    match (file, &e) {
+        (Some(file), Error::Input { what, .. }) if what.starts_with(key) => e.in_table(file.display(), table),
+        _ => e,
+    }
 }
 
 /// Runs a parsed command line: the command, then its summary and text.

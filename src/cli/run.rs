@@ -13,7 +13,7 @@
 use super::check::init_file;
 use super::plan::{PlanCommandConfig, PlanInputs, plan_stage};
 use super::sim::{load_sim_inputs, resolve_paths, sim_stage, surface_file};
-use super::{Ctx, Report};
+use super::{Ctx, Report, named_in};
 use crate::config::relative_to;
 use crate::error::{Error, Result};
 use crate::io::ply::write_mesh;
@@ -167,7 +167,8 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     if let Some(missing) = inputs.iter().find(|f| !f.exists()) {
         return Err(Error::input(missing.display(), "no such file"));
     }
-    let sim_inputs = load_sim_inputs(&p.sim, &p.plan.frames)?;
+    let in_pipeline = |e| named_in(e, Some(&args.pipeline), "", "sim");
+    let sim_inputs = load_sim_inputs(&p.sim, &p.plan.frames).map_err(in_pipeline)?;
     let mut products = super::plan::products();
     products.extend(super::sim::PRODUCTS);
     products.push(CONTACT_SURFACE);
@@ -181,9 +182,9 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     };
     // What only the plan tells (the run's length, the settling time against the contact) is
     // checked before the plan's stage writes.
-    let planned = plan_stage(&p.input, &plan_cfg, &out, &|t| {
-        check_trajectory(t, &p.sim).map(|_| ())
-    })?;
+    let accept = |t: &Trajectory| check_trajectory(t, &p.sim).map(|_| ()).map_err(in_pipeline);
+    let planned = plan_stage(&p.input, &plan_cfg, &out, &accept)
+        .map_err(|e| named_in(e, Some(&args.pipeline), "perception.", "clean."))?;
     let plan_s = started.elapsed().as_secs_f64();
     stages.inc(1);
     text += &planned.text;

@@ -41,17 +41,7 @@ pub struct SegmentArgs {
 /// A message for clap (usage error, exit code 2) when it is not three finite numbers within
 /// ±1e9.
 pub fn parse_vector3(s: &str) -> std::result::Result<Vector3<f64>, String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|t| t.trim().parse::<f64>().map_err(|e| format!("'{t}': {e}")))
-        .collect::<std::result::Result<_, _>>()?;
-    for c in &v {
-        crate::config::within_max(*c, || format!("'{s}'")).map_err(|e| e.to_string())?;
-    }
-    match v.as_slice() {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vector3::new(*x, *y, *z)),
-        _ => Err(format!("expected three finite numbers X,Y,Z, got '{s}'")),
-    }
+    super::parse_numbers::<3>(s).map(Vector3::from)
 }
 
 /// Reads a reference model: a PLY with faces is a mesh (sampled), one without is a cloud.

@@ -485,7 +485,9 @@ pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
     }
     let trajectory = Trajectory::read_csv(&args.trajectory)?;
     check_frames(&trajectory, &args.trajectory, &cfg)?;
-    let sim_inputs = load_sim_inputs(&cfg.sim, &cfg.frames)?;
+    let in_config = |e| super::named_in(e, args.config.as_deref(), "", "sim");
+    crate::sim::check_trajectory(&trajectory, &cfg.sim).map_err(in_config)?;
+    let sim_inputs = load_sim_inputs(&cfg.sim, &cfg.frames).map_err(in_config)?;
     let mut inputs: Vec<&Path> = vec![&args.trajectory];
     inputs.extend(cfg.sim.surface.as_deref());
     inputs.extend(cfg.sim.model.as_deref());

@@ -514,12 +514,6 @@ pub fn simulate(
     let mut plant_model = plant_model.clone();
     plant_model.environment.current = cfg.scenario.current_m_s;
     let (ctrl_model, ctrl) = controllers_model(cfg, &plant_model)?;
-    if cfg.vehicle.current_filter_s > 0.0 && ctrl.vehicle.velocity_against_drag(&Vector3::zeros()).is_none() {
-        return Err(Error::input(
-            "sim.vehicle.current_filter_s",
-            "the controllers' vehicle has no damping on some linear axis to estimate the current with (sim.controller_model.vehicle_damping_scale = 0, or a model without Fossen damping); set it to 0 to assume still water",
-        ));
-    }
     let arm = &ctrl.arm;
     let g = ctrl_model.environment.gravity;
     let allocator = Thrusters::new(&ctrl_model.thrusters)?;
@@ -1005,7 +999,8 @@ pub fn check_trajectory(trajectory: &Trajectory, cfg: &SimConfig) -> Result<(f64
 /// scales, and its multibody.
 ///
 /// # Errors
-/// [`Error::Input`] naming `sim.controller_model` if the scaled model is none.
+/// [`Error::Input`] naming `sim.controller_model` if the scaled model is none, or
+/// `sim.vehicle.current_filter_s` if its vehicle has no drag to read the current from.
 pub fn controllers_model(cfg: &SimConfig, plant_model: &UvmsModel) -> Result<(UvmsModel, Multibody)> {
     let model = cfg.controller_model.apply(plant_model);
     let system = Multibody::new(&model).map_err(|e| {
@@ -1014,6 +1009,13 @@ pub fn controllers_model(cfg: &SimConfig, plant_model: &UvmsModel) -> Result<(Uv
             format!("the plant's model with these scales is none: {e}"),
         )
     })?;
+    if cfg.vehicle.current_filter_s > 0.0 && system.vehicle.velocity_against_drag(&Vector3::zeros()).is_none()
+    {
+        return Err(Error::input(
+            "sim.vehicle.current_filter_s",
+            "the controllers' vehicle has no damping on some linear axis to estimate the current with (sim.controller_model.vehicle_damping_scale = 0, or a model without Fossen damping); set it to 0 to assume still water",
+        ));
+    }
     Ok((model, system))
 }
 
