@@ -47,10 +47,11 @@ pub fn from_toml_str<T: DeserializeOwned + Serialize>(text: &str, origin: &str) 
             };
         }
         let inner = e.into_inner();
-        let message = if key.is_empty() || inner.message().contains(&format!("`{key}`")) {
-            inner.message().to_string()
+        let said = float_shown(inner.message());
+        let message = if key.is_empty() || said.contains(&format!("`{key}`")) {
+            said
         } else {
-            format!("{key}: {}", inner.message())
+            format!("{key}: {said}")
         };
         Error::input(at(line_of(&inner)), message)
     })?;
@@ -191,6 +192,22 @@ pub fn regular_file(path: &Path, what: &str) -> Result<()> {
         return Err(fail("is not a regular file".into()));
     }
     Ok(())
+}
+
+/// serde's message with the real value it quotes (`floating point \`1000…0\``, a float given
+/// for an integer) as [`shown`]: 1e300 is not three hundred digits.
+fn float_shown(message: &str) -> String {
+    const QUOTE: &str = "floating point `";
+    let Some(start) = message.find(QUOTE).map(|i| i + QUOTE.len()) else {
+        return message.to_string();
+    };
+    let Some(len) = message[start..].find('`') else {
+        return message.to_string();
+    };
+    match message[start..start + len].parse::<f64>() {
+        Ok(v) => format!("{}{}{}", &message[..start], shown(v), &message[start + len..]),
+        Err(_) => message.to_string(),
+    }
 }
 
 /// A text file's contents, without a leading byte-order mark.
@@ -493,6 +510,12 @@ mod tests {
         assert_eq!(err.exit_code(), 2);
         assert!(msg.contains("x.toml line 3") && msg.contains("radius"), "{msg}");
         assert!(!msg.contains('\n'));
+        // A float for an integer is quoted as the other values are, not in 301 digits.
+        let err = from_toml_str::<Demo>("seed = 1e300\n", "x.toml").unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "x.toml line 1: seed: invalid type: floating point `1e300`, expected u64"
+        );
         // A syntax error names the text it is at: which key is twice.
         let err = from_toml_str::<Demo>("seed = 3\nseed = 4\n", "x.toml").unwrap_err();
         assert_eq!(err.to_string(), "x.toml line 2: duplicate key (at `seed`)");
