@@ -661,7 +661,7 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     let o6 = dir.path().join("o6");
     let err = refused(&["run", p6.to_str().unwrap(), "--out", o6.to_str().unwrap()], 2);
     assert!(
-        err.contains("sim.controller_model: the controllers' estimate of the current"),
+        err.contains("variant.toml: sim.controller_model: the controllers' estimate of the current"),
         "{err}"
     );
     let p3 = variant(dir.path(), "");

@@ -215,7 +215,7 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
             sim_inputs.with_surface(mesh, &p.sim, SurfaceFrame::Scan, &origin, "sim.surface_from")?
         }
     };
-    let stage = sim_stage(&planned.trajectory, &sim_inputs, &p.sim, &out, ctx)?;
+    let stage = sim_stage(&planned.trajectory, &sim_inputs, &p.sim, &out, ctx).map_err(in_pipeline)?;
     let sim_s = sim_started.elapsed().as_secs_f64();
     stages.finish_and_clear();
     text += &stage.text;

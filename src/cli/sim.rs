@@ -493,7 +493,7 @@ pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
     inputs.extend(cfg.sim.model.as_deref());
     inputs.extend(args.config.as_deref());
     let out = OutDir::create(&args.out, &inputs, &PRODUCTS)?;
-    let stage = sim_stage(&trajectory, &sim_inputs, &cfg.sim, &out, ctx)?;
+    let stage = sim_stage(&trajectory, &sim_inputs, &cfg.sim, &out, ctx).map_err(in_config)?;
     out.write_toml("config.toml", &cfg)?;
     Ok(Report {
         summary: stage.summary,
