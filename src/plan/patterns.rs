@@ -31,7 +31,7 @@ use super::project::{
     project_all,
 };
 use super::{ObjectAxes, ObjectInput, PlanInput, perpendicular};
-use crate::config::{non_negative, positive, shown_to};
+use crate::config::{non_negative, positive, require, shown_to};
 use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
@@ -268,9 +268,7 @@ pub fn validate(
         ("line.offset_m[1]", lx),
         ("line.offset_m[2]", ly),
     ] {
-        if !v.is_finite() {
-            return Err(Error::input(what, "must be a finite number"));
-        }
+        require(v.is_finite(), what, "must be a finite number")?;
     }
     Ok(())
 }
