@@ -1272,6 +1272,35 @@ fn a_stiff_surface_pressed_in_the_approach_keeps_the_contact() {
     );
 }
 
+/// A grazing touch at the dwell's start: with the attitude sensor noise-free, bottle seed 1's
+/// approach ends just touching the fouled bottle (0.5 N), and the arm, settling after the
+/// approach, draws the tool back a few tenths of a millimetre faster than the force loop's
+/// integral advances it on the set-point's ramp from zero. The guarded start (`[sim.dwell]
+/// touch_n`) goes on towards the surface at the approach's speed until the tool is felt
+/// pressing: the contact is never lost. Without it (`touch_n = 0`) the tool leaves the bottle
+/// for a tenth of a second, a failed run.
+#[test]
+fn a_grazing_touch_is_pressed_home() {
+    let grazing = "[sim.sensors]\nattitude_noise_rad = 0.0\n";
+    let runs = variants(&[
+        grazing.to_string(),
+        format!("{grazing}\n[sim.dwell]\ntouch_n = 0.0\n"),
+    ]);
+    let (guarded, unguarded) = (&runs[0], &runs[1]);
+    assert!(
+        guarded["failure"].is_null() && guarded["contact_lost_s"].as_f64() == Some(0.0),
+        "{guarded}"
+    );
+    assert!(
+        (guarded["force_settled_mean_n"].as_f64().unwrap() - 60.0).abs() <= 1.0,
+        "{guarded}"
+    );
+    assert!(
+        unguarded["contact_lost_s"].as_f64().unwrap() > 0.05 && unguarded["failure"].as_str().is_some(),
+        "{unguarded}"
+    );
+}
+
 /// A force asked for and not held is a failed contact operation: on a surface ten times softer
 /// than planned for (k = 1e3 N/m) the force loop's offset reaches its 5 cm limit at 50 N, and
 /// the dwell waits its 10 s for a force that never settles (tried: settled at 49.3 N, exit 0

@@ -81,6 +81,8 @@ pub struct Fcu {
     prev_error: Option<f64>,
     derivative: f64,
     offset: f64,
+    /// The guarded start's advance (`advance`), m.
+    advanced: f64,
 }
 
 impl Fcu {
@@ -97,6 +99,14 @@ impl Fcu {
         self.offset
     }
 
+    /// Moves the offset's origin by `step` (m) along `k`: a guarded start's advance towards a
+    /// surface not yet felt, which the PID then works from.
+    pub fn advance(&mut self, step: f64) {
+        let to = (self.offset + step).clamp(-self.cfg.max_offset_m, self.cfg.max_offset_m);
+        self.advanced += to - self.offset;
+        self.offset = to;
+    }
+
     /// One step of `dt` with the force error `delta_f` (N); returns `x̃` (m).
     pub fn update(&mut self, delta_f: f64, dt: f64) -> f64 {
         let c = &self.cfg;
@@ -106,11 +116,11 @@ impl Fcu {
         }
         self.prev_error = Some(delta_f);
         let candidate = self.integral + delta_f * dt;
-        let unclamped = c.kp * delta_f + c.ki * candidate + c.kd * self.derivative;
+        let unclamped = c.kp * delta_f + c.ki * candidate + c.kd * self.derivative + self.advanced;
         if unclamped.abs() <= c.max_offset_m {
             self.integral = candidate;
         }
-        self.offset = (c.kp * delta_f + c.ki * self.integral + c.kd * self.derivative)
+        self.offset = (c.kp * delta_f + c.ki * self.integral + c.kd * self.derivative + self.advanced)
             .clamp(-c.max_offset_m, c.max_offset_m);
         self.offset
     }
@@ -198,5 +208,33 @@ mod tests {
         // Once the error reverses, the offset leaves the bound at once.
         fcu.update(-60.0, 1e-3);
         assert!(fcu.offset() < 0.05);
+    }
+
+    /// A guarded start's advance moves the origin the PID works from: against a spring whose
+    /// surface lies 2 mm beyond the start, the advance to it and the loop then settle at the
+    /// set-point with the integral 2 mm short of the loop's alone; the bound holds it.
+    #[test]
+    fn an_advance_is_the_origin_the_pid_works_from() {
+        let (ks, gap, dt) = (1e4, 0.002, 1e-3);
+        let settle = |advance: f64| {
+            let mut fcu = Fcu::new(&FcuConfig::default());
+            fcu.advance(advance);
+            assert!((fcu.offset() - advance).abs() < 1e-15);
+            let mut f: f64 = 0.0;
+            for _ in 0..5000 {
+                f = ks * (fcu.update(60.0 - f, dt) - gap).max(0.0);
+            }
+            (f, fcu.integral)
+        };
+        let (f_alone, i_alone) = settle(0.0);
+        let (f_advanced, i_advanced) = settle(gap);
+        assert!((f_alone - 60.0).abs() < 1e-3 && (f_advanced - 60.0).abs() < 1e-3);
+        assert!((FcuConfig::default().ki * (i_alone - i_advanced) - gap).abs() < 1e-6);
+        // Advanced past the bound, the offset stops there and a force too large pulls it back.
+        let mut fcu = Fcu::new(&FcuConfig::default());
+        fcu.advance(1.0);
+        assert_eq!(fcu.offset(), 0.05);
+        assert_eq!(fcu.update(0.0, dt), 0.05);
+        assert!(fcu.update(-10.0, dt) < 0.05);
     }
 }

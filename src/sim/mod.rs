@@ -222,6 +222,12 @@ pub struct DwellConfig {
     pub hold_s: f64,
     /// Longest extra wait before moving on anyway, s.
     pub max_wait_s: f64,
+    /// The dwell's guarded start: until the identified force along `k` first reaches this, N
+    /// (or the dwell's force, if less), the tool keeps moving towards the surface at the
+    /// approach's speed, on top of the force loop (0: no guard). The loop's integral alone advances the tool a tenth of a millimetre
+    /// in the ramp's first 0.1 s, slower than the arm settles after the approach: a touch that
+    /// light was lost.
+    pub touch_n: f64,
 }
 
 impl Default for DwellConfig {
@@ -230,6 +236,7 @@ impl Default for DwellConfig {
             tolerance_n: 3.0,
             hold_s: 0.5,
             max_wait_s: 10.0,
+            touch_n: 3.0,
         }
     }
 }
@@ -430,6 +437,7 @@ impl SimConfig {
         positive("sim.dwell.tolerance_n", self.dwell.tolerance_n)?;
         non_negative("sim.dwell.hold_s", self.dwell.hold_s)?;
         non_negative("sim.dwell.max_wait_s", self.dwell.max_wait_s)?;
+        non_negative("sim.dwell.touch_n", self.dwell.touch_n)?;
         self.contact.validate()?;
         self.navigation.validate()?;
         self.icu.validate()?;
@@ -649,6 +657,15 @@ pub fn simulate(
         .phase(Phase::Contact)
         .next()
         .map_or(force_setpoint, |s| s.force);
+    // The guarded start's speed: the approach's, into its last point.
+    let guard_speed = trajectory
+        .samples
+        .windows(2)
+        .find(|w| w[0].phase == Phase::Approach && w[1].phase != Phase::Approach)
+        .map_or(0.0, |w| {
+            (w[1].position - w[0].position).norm() / (w[1].t - w[0].t)
+        });
+    let mut guarding = cfg.dwell.touch_n > 0.0;
     let (mut dwell_wait, mut settled_for) = (0.0, 0.0);
     let (mut unreachable, mut saturated) = (0usize, 0usize);
     let wall = std::time::Instant::now();
@@ -695,6 +712,15 @@ pub fn simulate(
                 *from = 0.0;
             } else {
                 s.force = *from;
+            }
+        }
+        // The dwell's guarded start (`[sim.dwell] touch_n`): the approach goes on until the
+        // tool is felt pressing.
+        if guarding && pressing && s.phase == Phase::Dwell && cfg.scenario.force_loop {
+            if s.k.dot(&f_imp_est) >= cfg.dwell.touch_n.min(ramp_to) {
+                guarding = false;
+            } else {
+                fcu.advance(guard_speed * dt);
             }
         }
         let offset = if !cfg.scenario.force_loop {
