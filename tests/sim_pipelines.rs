@@ -1243,7 +1243,7 @@ fn bottle_on_stiffness(dir: &Path, k: &str) -> PathBuf {
 
 /// A stiff surface the approach already presses on (k = 1e5 N/m, ten times the seed's; the
 /// fouled bottle stands out of its scan, and bottle seed 1's tool touches it 0.06 s before the
-/// dwell, 11 N at its start): the force loop takes over from the force the tool presses with,
+/// dwell, 12 N at its start): the force loop takes over from the force the tool presses with,
 /// the set-point's ramp held there until it catches up. Ramping from zero it asked for 0.6 N,
 /// pulled the tool back and lost the surface for 0.02 s (a failed run).
 #[test]
@@ -1273,12 +1273,11 @@ fn a_stiff_surface_pressed_in_the_approach_keeps_the_contact() {
 }
 
 /// A grazing touch at the dwell's start: with the attitude sensor noise-free, bottle seed 1's
-/// approach ends just touching the fouled bottle (0.5 N), and the arm, settling after the
-/// approach, draws the tool back a few tenths of a millimetre faster than the force loop's
-/// integral advances it on the set-point's ramp from zero. The guarded start (`[sim.dwell]
-/// touch_n`) goes on towards the surface at the approach's speed until the tool is felt
-/// pressing: the contact is never lost. Without it (`touch_n = 0`) the tool leaves the bottle
-/// for a tenth of a second, a failed run.
+/// approach ends just touching the fouled bottle (0.2 N), and the arm, settling after the
+/// approach, lags the target the force loop's integral moves on the set-point's ramp from zero:
+/// the tool draws back 0.15 mm in 0.1 s. The guarded start (`[sim.dwell] touch_n`) goes on
+/// towards the surface at the approach's speed until the tool is felt pressing: the contact is
+/// never lost. Without it (`touch_n = 0`) the tool leaves the bottle for 0.14 s, a failed run.
 #[test]
 fn a_grazing_touch_is_pressed_home() {
     let grazing = "[sim.sensors]\nattitude_noise_rad = 0.0\n";
