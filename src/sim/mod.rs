@@ -224,9 +224,10 @@ pub struct DwellConfig {
     pub max_wait_s: f64,
     /// The dwell's guarded start: until the identified force along `k` first reaches this, N
     /// (or the dwell's force, if less), the tool keeps moving towards the surface at the
-    /// approach's speed, on top of the force loop (0: no guard). The loop's integral alone advances the tool a tenth of a millimetre
-    /// in the ramp's first 0.1 s, slower than the arm settles after the approach: a touch that
-    /// light was lost.
+    /// approach's speed (its last step's, into the dwell: no guard for a trajectory without an
+    /// approach), on top of the force loop (0: no guard). On the set-point's ramp from zero the
+    /// loop's integral alone moves the tool's target 0.18 mm in the first 0.1 s, which the arm,
+    /// settling after the approach, lags: a touch that light was lost (see the README).
     pub touch_n: f64,
 }
 
