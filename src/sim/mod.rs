@@ -223,9 +223,9 @@ pub struct DwellConfig {
     /// Longest extra wait before moving on anyway, s.
     pub max_wait_s: f64,
     /// The dwell's guarded start: until the identified force along `k` first reaches this, N
-    /// (or the dwell's force, if less), the tool keeps moving towards the surface at the
+    /// (or the dwell's force, if less), the tool moves towards the surface at least at the
     /// approach's speed (its last step's, into the dwell: no guard for a trajectory without an
-    /// approach), on top of the force loop (0: no guard). On the set-point's ramp from zero the
+    /// approach), the force loop's own advance standing where it is faster (0: no guard). On the set-point's ramp from zero the
     /// loop's integral alone moves the tool's target 0.18 mm in the first 0.1 s, which the arm,
     /// settling after the approach, lags: a touch that light was lost (see the README).
     pub touch_n: f64,
@@ -715,19 +715,21 @@ pub fn simulate(
                 s.force = *from;
             }
         }
-        // The dwell's guarded start (`[sim.dwell] touch_n`): the approach goes on until the
-        // tool is felt pressing.
-        if guarding && pressing && s.phase == Phase::Dwell && cfg.scenario.force_loop {
-            if s.k.dot(&f_imp_est) >= cfg.dwell.touch_n.min(ramp_to) {
-                guarding = false;
-            } else {
-                fcu.advance(guard_speed * dt);
-            }
-        }
         let offset = if !cfg.scenario.force_loop {
             0.0
         } else if pressing {
-            fcu.update(force_error(s.force, &s.k, &f_imp_est), dt)
+            let before = fcu.offset();
+            let after = fcu.update(force_error(s.force, &s.k, &f_imp_est), dt);
+            // The dwell's guarded start (`[sim.dwell] touch_n`): until the tool is felt
+            // pressing, it moves towards the surface at least at the approach's speed.
+            if guarding && s.phase == Phase::Dwell {
+                if s.k.dot(&f_imp_est) >= cfg.dwell.touch_n.min(ramp_to) {
+                    guarding = false;
+                } else {
+                    fcu.advance((before + guard_speed * dt - after).max(0.0));
+                }
+            }
+            fcu.offset()
         } else if s.phase == Phase::Retreat {
             fcu.offset()
         } else {
