@@ -1273,11 +1273,11 @@ fn a_stiff_surface_pressed_in_the_approach_keeps_the_contact() {
 }
 
 /// A grazing touch at the dwell's start: with the attitude sensor noise-free, bottle seed 1's
-/// approach ends just touching the fouled bottle (0.2 N), and the arm, settling after the
-/// approach, lags the target the force loop's integral moves on the set-point's ramp from zero:
-/// the tool draws back 0.15 mm in 0.1 s. The guarded start (`[sim.dwell] touch_n`) goes on
-/// towards the surface at the approach's speed until the tool is felt pressing: the contact is
-/// never lost. Without it (`touch_n = 0`) the tool leaves the bottle for 0.14 s, a failed run.
+/// approach ends just touching the fouled bottle (0.2 N), and the arm, settling after the approach,
+/// lags the target the force loop's integral moves on the set-point's ramp from zero: the tool
+/// draws back 0.15 mm in 0.1 s. The guarded start (`[sim.dwell] touch_n`) goes on towards the
+/// surface at least at the approach's speed until the tool is felt pressing: the contact is never
+/// lost. Without it (`touch_n = 0`) the tool leaves the bottle for 0.14 s, a failed run.
 #[test]
 fn a_grazing_touch_is_pressed_home() {
     let grazing = "[sim.sensors]\nattitude_noise_rad = 0.0\n";
