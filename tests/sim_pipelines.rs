@@ -522,7 +522,7 @@ fn a_stabilisation_without_integral_action_runs() {
 /// The seed's bottle figures in the seed's own conditions: its simulation states no sensor
 /// noise, and with every sensor noise-free (the encoders' resolution and the vision fix's
 /// 0.25 s delay kept) the joint moments are identified within the seed's 0.5 N·m at every
-/// control period in contact (0.42 N·m at most, on the first joint where the contact force
+/// control period in contact (0.41 N·m at most, on the first joint where the contact force
 /// turns by a degree within one period), and the tool keeps within the 3 mm goal. With the
 /// default noise these are the figures the sensors' noise moves (see the README).
 #[test]
