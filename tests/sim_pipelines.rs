@@ -118,16 +118,21 @@ fn variant(dir: &Path, extra: &str) -> PathBuf {
 /// The bottle pipeline with each of `extras` appended, run side by side: their `sim`
 /// summaries, in order.
 fn variants(extras: &[String]) -> Vec<Value> {
+    side_by_side(extras.len(), |d, i| variant(d, &extras[i]))
+}
+
+/// `n` pipelines, the `i`-th written by `make(dir, i)` into a folder of its own, run side by
+/// side: their `sim` summaries, in order.
+fn side_by_side(n: usize, make: impl Fn(&Path, usize) -> PathBuf + Sync) -> Vec<Value> {
     let dir = tempfile::tempdir().unwrap();
+    let make = &make;
     std::thread::scope(|scope| {
-        let handles: Vec<_> = extras
-            .iter()
-            .enumerate()
-            .map(|(i, extra)| {
+        let handles: Vec<_> = (0..n)
+            .map(|i| {
                 let d = dir.path().join(i.to_string());
                 scope.spawn(move || {
                     std::fs::create_dir_all(&d).unwrap();
-                    let p = variant(&d, extra);
+                    let p = make(&d, i);
                     run_pipeline(&p, &d.join("out"))["sim"].clone()
                 })
             })
@@ -1285,21 +1290,10 @@ fn a_stiff_surface_pressed_in_the_approach_keeps_the_contact() {
 /// the force's RMS error under half of that.
 #[test]
 fn a_faster_force_loop_holds_small_forces() {
-    let dir = tempfile::tempdir().unwrap();
-    let runs: Vec<Value> = std::thread::scope(|scope| {
-        ["4e-4", "1.6e-3"]
-            .map(|ki| {
-                let d = dir.path().join(ki);
-                scope.spawn(move || {
-                    std::fs::create_dir_all(&d).unwrap();
-                    let to = format!("ki = {ki}");
-                    let changes = [("force_n = 60.0", "force_n = 5.0"), ("ki = 4e-4", &to)];
-                    let p = bottle_with(&d, "small.toml", &changes);
-                    run_pipeline(&p, &d.join("out"))["sim"].clone()
-                })
-            })
-            .map(|h| h.join().unwrap())
-            .into()
+    let gains = ["ki = 4e-4", "ki = 1.6e-3"];
+    let runs = side_by_side(gains.len(), |d, i| {
+        let changes = [("force_n = 60.0", "force_n = 5.0"), ("ki = 4e-4", gains[i])];
+        bottle_with(d, "small.toml", &changes)
     });
     let (seed_s, faster) = (&runs[0], &runs[1]);
     assert!(
