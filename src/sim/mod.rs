@@ -222,12 +222,13 @@ pub struct DwellConfig {
     pub hold_s: f64,
     /// Longest extra wait before moving on anyway, s.
     pub max_wait_s: f64,
-    /// The dwell's guarded start: until the identified force along `k` first reaches this, N
-    /// (or the dwell's force, if less), the tool moves towards the surface at least at the
-    /// approach's speed (its last step's, into the dwell: no guard for a trajectory without an
-    /// approach), the force loop's own advance standing where it is faster (0: no guard). On the set-point's ramp from zero the
-    /// loop's integral alone moves the tool's target 0.18 mm in the first 0.1 s, which the arm,
-    /// settling after the approach, lags: a touch that light was lost (see the README).
+    /// The dwell's guarded start: until the identified force along `k` first reaches this, N (or
+    /// the dwell's force, if less), the tool moves towards the surface at least at the approach's
+    /// speed (its last step's, into the dwell: no guard for a trajectory without an approach), the
+    /// force loop's own advance standing where it is faster (0: no guard). On the set-point's ramp
+    /// from zero the loop's integral alone moves the tool's target 0.18 mm in the first 0.1 s,
+    /// which the arm, settling after the approach, lags: a touch that light was lost (see the
+    /// README).
     pub touch_n: f64,
 }
 
