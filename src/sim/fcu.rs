@@ -99,8 +99,8 @@ impl Fcu {
         self.offset
     }
 
-    /// Moves the offset's origin by `step` (m) along `k`: a guarded start's advance towards a
-    /// surface not yet felt, which the PID then works from.
+    /// Moves the offset, and the origin the PID works from, by `step` (m) along `k`, within the
+    /// offset's bound: a guarded start's advance towards a surface not yet felt.
     pub fn advance(&mut self, step: f64) {
         let to = (self.offset + step).clamp(-self.cfg.max_offset_m, self.cfg.max_offset_m);
         self.advanced += to - self.offset;
@@ -211,8 +211,9 @@ mod tests {
     }
 
     /// A guarded start's advance moves the origin the PID works from: against a spring whose
-    /// surface lies 2 mm beyond the start, the advance to it and the loop then settle at the
-    /// set-point with the integral 2 mm short of the loop's alone; the bound holds it.
+    /// surface lies 2 mm beyond the start, the loop advanced to it and the loop alone both settle
+    /// at the set-point, the integral's share of the offset (`ki ∫ΔF dt`) 2 mm less in the first;
+    /// an advance past the bound stops at it, and a force too large pulls the offset back.
     #[test]
     fn an_advance_is_the_origin_the_pid_works_from() {
         let (ks, gap, dt) = (1e4, 0.002, 1e-3);
