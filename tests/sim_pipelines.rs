@@ -1188,11 +1188,9 @@ fn a_footprint_the_surface_cannot_take_is_refused_up_front() {
         ("bottle_cleaning", "0.5", "wider than a tool's footprint"),
         ("soil_sampling", "0.01", "applies to a rigid surface"),
     ] {
-        let text = pipeline_text(name);
-        assert!(text.contains("[sim.contact]\n"));
-        let p = dir.path().join(format!("{name}.toml"));
-        let footprint = format!("[sim.contact]\nfootprint_radius_m = {radius}\n");
-        std::fs::write(&p, text.replace("[sim.contact]\n", &footprint)).unwrap();
+        let footprint = format!("[sim.contact]\nfootprint_radius_m = {radius}");
+        let file = format!("{name}.toml");
+        let p = pipeline_with(name, dir.path(), &file, &[("[sim.contact]", &footprint)]);
         let out = dir.path().join(name);
         let err = refused(&["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()], 2);
         assert!(
@@ -1232,12 +1230,12 @@ fn the_scanned_surface_must_cover_the_path() {
     assert!(!lined.exists());
 }
 
-/// The bottle pipeline with each of its lines `from` changed to `to`, written into `dir` as
-/// `name`.
-fn bottle_with(dir: &Path, name: &str, changes: &[(&str, &str)]) -> PathBuf {
-    let mut text = pipeline_text("bottle_cleaning");
+/// The committed pipeline `pipeline` with each of its lines `from` changed to `to`, written into
+/// `dir` as `name`.
+fn pipeline_with(pipeline: &str, dir: &Path, name: &str, changes: &[(&str, &str)]) -> PathBuf {
+    let mut text = pipeline_text(pipeline);
     for (from, to) in changes {
-        assert!(text.contains(&format!("\n{from}\n")), "{from}");
+        assert!(text.contains(&format!("\n{from}\n")), "{pipeline}: {from}");
         text = text.replace(&format!("\n{from}\n"), &format!("\n{to}\n"));
     }
     let p = dir.join(name);
@@ -1249,7 +1247,12 @@ fn bottle_with(dir: &Path, name: &str, changes: &[(&str, &str)]) -> PathBuf {
 /// seed's 1e4, written into `dir`.
 fn bottle_on_stiffness(dir: &Path, k: &str) -> PathBuf {
     let to = format!("stiffness_n_m = {k}");
-    bottle_with(dir, &format!("k{k}.toml"), &[("stiffness_n_m = 1e4", &to)])
+    pipeline_with(
+        "bottle_cleaning",
+        dir,
+        &format!("k{k}.toml"),
+        &[("stiffness_n_m = 1e4", &to)],
+    )
 }
 
 /// A stiff surface the approach already presses on (k = 1e5 N/m, ten times the seed's; the
@@ -1293,7 +1296,7 @@ fn a_faster_force_loop_holds_small_forces() {
     let gains = ["ki = 4e-4", "ki = 1.6e-3"];
     let runs = side_by_side(gains.len(), |d, i| {
         let changes = [("force_n = 60.0", "force_n = 5.0"), ("ki = 4e-4", gains[i])];
-        bottle_with(d, "small.toml", &changes)
+        pipeline_with("bottle_cleaning", d, "small.toml", &changes)
     });
     let (seed_s, faster) = (&runs[0], &runs[1]);
     assert!(
@@ -1391,27 +1394,22 @@ fn a_force_not_held_is_a_failed_run() {
 /// the whole raster (86 s in contact, 1708 samples) is cleaned at the bottle's figures.
 #[test]
 fn a_raster_on_the_bottle_with_a_symmetric_tool() {
-    let raster = "[plan]\npattern = \"raster\"";
+    let (ring, raster) = ("pattern = \"ring\"", "pattern = \"raster\"");
     let dir = tempfile::tempdir().unwrap();
-    let text = pipeline_text("bottle_cleaning");
-    assert!(text.contains("[plan]\npattern = \"ring\""));
-    let travel = dir.path().join("travel.toml");
-    std::fs::write(&travel, text.replace("[plan]\npattern = \"ring\"", raster)).unwrap();
+    let travel = pipeline_with("bottle_cleaning", dir.path(), "travel.toml", &[(ring, raster)]);
     let t = dir.path().join("t");
     let err = refused(
         &["run", travel.to_str().unwrap(), "--out", t.to_str().unwrap()],
         1,
     );
     assert!(err.contains("hover: no hover point reaches"), "{err}");
-    let steady = dir.path().join("steady.toml");
-    std::fs::write(
-        &steady,
-        text.replace(
-            "[plan]\npattern = \"ring\"",
-            &format!("{raster}\n\n[plan.tool]\nx_axis = \"steady\""),
-        ),
-    )
-    .unwrap();
+    let steady_tool = format!("{raster}\n\n[plan.tool]\nx_axis = \"steady\"");
+    let steady = pipeline_with(
+        "bottle_cleaning",
+        dir.path(),
+        "steady.toml",
+        &[(ring, &steady_tool)],
+    );
     let s = run_pipeline(&steady, &dir.path().join("s"));
     let sim = &s["sim"];
     let f = |key: &str| sim[key].as_f64().unwrap();
