@@ -341,9 +341,21 @@ pub fn remove_statistical_outliers(cloud: &PointCloud, config: &OutlierConfig) -
     let mean_d = map_knn(&cloud.points, k, |_, nb| {
         nb.iter().map(|x| x.distance).sum::<f64>() / nb.len().max(1) as f64
     })?;
-    let mean = mean_d.iter().sum::<f64>() / n as f64;
-    let var = mean_d.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-    let std = var.sqrt();
+    // A point so far from the rest that its distance overflows is an outlier, and out of the
+    // statistics. The others' are taken in units of a power of two near the largest (exact:
+    // the same figures as unscaled), so that the squares cannot overflow: one stray point at
+    // 1e160 m must not make the threshold NaN and empty the cloud.
+    let finite: Vec<f64> = mean_d.iter().copied().filter(|d| d.is_finite()).collect();
+    let largest = finite.iter().copied().fold(0.0, f64::max);
+    let unit = if largest > 0.0 {
+        largest.log2().floor().exp2()
+    } else {
+        1.0
+    };
+    let m = finite.len() as f64;
+    let mean = finite.iter().map(|d| d / unit).sum::<f64>() / m;
+    let var = finite.iter().map(|d| (d / unit - mean).powi(2)).sum::<f64>() / (m - 1.0).max(1.0);
+    let (mean, std) = (mean * unit, var.sqrt() * unit);
     let threshold = mean + config.std_ratio * std;
     let kept: Vec<usize> = (0..n).filter(|&i| mean_d[i] <= threshold).collect();
     Ok(OutlierResult {
@@ -517,6 +529,24 @@ mod tests {
         assert_eq!(r.kept.len(), 2500);
         assert!(planted.iter().all(|i| !r.kept.contains(i)));
         assert_eq!(r.kept, (0..2500).collect::<Vec<_>>());
+        // One stray point so far that its distances' squares overflow: it goes, and the rest
+        // are judged as without it.
+        let grid = PointCloud::from_points(cloud.points[..2500].to_vec());
+        let alone = remove_statistical_outliers(&grid, &OutlierConfig::default()).unwrap();
+        let mut pts = grid.points.clone();
+        for far in [1e160, 1e300] {
+            pts.push(Point3::new(far, 0.0, 0.0));
+            let r =
+                remove_statistical_outliers(&PointCloud::from_points(pts.clone()), &OutlierConfig::default())
+                    .unwrap();
+            assert!(
+                r.kept == alone.kept,
+                "a point at {far:e} m: {} kept",
+                r.kept.len()
+            );
+            assert_eq!(r.threshold_m, alone.threshold_m, "a point at {far:e} m");
+            pts.pop();
+        }
     }
 
     #[test]
