@@ -85,10 +85,27 @@ pub fn signal_ignored_at_start(signal: i32) -> bool {
 }
 
 /// A folder the run writes its products into.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct OutDir {
     dir: PathBuf,
     products: Vec<&'static str>,
+    /// The folders [`OutDir::create`] made, deepest first: removed again when the run ends
+    /// with them still empty (bad input found after the folder was made), so that a run that
+    /// wrote nothing leaves nothing.
+    created: Vec<PathBuf>,
+}
+
+impl Drop for OutDir {
+    fn drop(&mut self) {
+        for dir in &self.created {
+            // Stops at the first folder that holds anything (one `create_dir_all` did not
+            // get to is passed over).
+            match fs::remove_dir(dir) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => break,
+                _ => {}
+            }
+        }
+    }
 }
 
 /// What every command writes into its folder besides its products.
@@ -127,6 +144,16 @@ impl OutDir {
                 ));
             }
         }
+        let created: Vec<PathBuf> = dir
+            .ancestors()
+            .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
+            .map(Path::to_path_buf)
+            .collect();
+        let out = OutDir {
+            dir: dir.to_path_buf(),
+            products,
+            created,
+        };
         fs::create_dir_all(dir)
             .map_err(|e| Error::input(dir.display(), format!("cannot create the output folder: {e}")))?;
         // A folder the command could not write in is found before any stage runs.
@@ -134,10 +161,7 @@ impl OutDir {
             .map_err(|e| Error::input(dir.display(), format!("cannot write in the output folder: {e}")))?;
         drop(file);
         drop(probe);
-        Ok(OutDir {
-            dir: dir.to_path_buf(),
-            products,
-        })
+        Ok(out)
     }
 
     /// The folder's path.

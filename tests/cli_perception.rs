@@ -203,6 +203,28 @@ fn no_cluster_fitting_the_reference_is_exit_1() {
     ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("select: no cluster fits"), "{}", stderr(&o));
+    // With `--whole-scan` the scan is the object, and must fit the reference alike: the cube
+    // is not the bottle, but is itself.
+    let whole = |reference: &Path| {
+        let (scan, reference) = (model.to_str().unwrap(), reference.to_str().unwrap());
+        run(&[
+            "check",
+            scan,
+            "--reference",
+            reference,
+            "--whole-scan",
+            "--init",
+            "identity",
+        ])
+    };
+    let o = whole(&data("models/bottle.ply"));
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).starts_with("error: select: --whole-scan: the scan's 0.036×0.036×0.036 m does not fit the reference's 0.715×0.349×0.349 m"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(whole(&model).status.code(), Some(0));
 }
 
 #[test]
@@ -257,7 +279,7 @@ fn bad_input_is_exit_2() {
             "segment".into(),
             junk.display().to_string(),
             "--out".into(),
-            dir.path().join("b").display().to_string(),
+            dir.path().join("b").join("c").display().to_string(),
         ],
         vec![
             "check".into(),
@@ -327,5 +349,9 @@ fn bad_input_is_exit_2() {
             e.starts_with("error: ") && e.lines().count() == 1,
             "{a:?}: not one line: {e}"
         );
+    }
+    // The output folders the bad runs made, empty, are gone again.
+    for out in ["a", "b"] {
+        assert!(!dir.path().join(out).exists(), "{out} left behind");
     }
 }
