@@ -630,7 +630,7 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         // A controllers' model that is none (it was named as the model file's key).
         (
             "[sim.controller_model]\nlink_mass_scale = 1e8",
-            "variant.toml: sim.controller_model: the plant's model with these scales is none",
+            "variant.toml: sim.controller_model: the controllers' model, the plant's with these scales, is not a valid model: model: arm.links",
         ),
     ] {
         let p = variant(dir.path(), extra);
@@ -647,6 +647,20 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     let o7 = dir.path().join("o7");
     let err = refused(&["run", p.to_str().unwrap(), "--out", o7.to_str().unwrap()], 2);
     assert!(err.contains("variant.toml: sim: the run could take"), "{err}");
+    assert!(!o7.exists(), "files left");
+    // A fine control rate times many plant substeps is as long a run (4·10⁹ plant steps, some
+    // four hours of computing): refused alike.
+    let fine = [(
+        "seed = 1",
+        "seed = 1\ncontrol_rate_hz = 1e5\nplant_substeps = 1000",
+    )];
+    let p = pipeline_with("bottle_cleaning", dir.path(), "fine.toml", &fine);
+    let err = refused(&["run", p.to_str().unwrap(), "--out", o7.to_str().unwrap()], 2);
+    assert!(
+        err.contains("fine.toml: sim: the run could take 4.445e6 control periods")
+            && err.ends_with("of sim.plant_substeps 1000 plant steps each: at most 1e8 steps\n"),
+        "{err}"
+    );
     assert!(!o7.exists(), "files left");
     // Found before the first stage runs: nothing written.
     assert!(
@@ -667,6 +681,18 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     let err = refused(&["run", p6.to_str().unwrap(), "--out", o6.to_str().unwrap()], 2);
     assert!(
         err.contains("variant.toml: sim.controller_model: the controllers' estimate of the current"),
+        "{err}"
+    );
+    // With a water track the estimate is the track's reading: a noise no log could make
+    // (100 m/s a ping) is a failed run naming it, not the controllers' model.
+    let p6 = variant(
+        dir.path(),
+        "[sim.sensors]\nwater_track_rate_hz = 10.0\nwater_track_noise_m_s = 100.0",
+    );
+    let err = refused(&["run", p6.to_str().unwrap(), "--out", o6.to_str().unwrap()], 1);
+    assert!(
+        err.contains("sim: the controllers' estimate of the current")
+            && err.contains("[sim.sensors] water_track_noise_m_s 100 m/s over 100 pings"),
         "{err}"
     );
     let p3 = variant(dir.path(), "");
@@ -1340,6 +1366,24 @@ fn a_grazing_touch_is_pressed_home() {
     assert!(
         unguarded["contact_lost_s"].as_f64().unwrap() > 0.05 && unguarded["failure"].as_str().is_some(),
         "{unguarded}"
+    );
+}
+
+/// Tool targets the arm cannot reach are a failed run: the set-points held, the path was not
+/// followed. Without the levelling at the held station the accelerometers' bias comes from a
+/// single reading, the vehicle believes itself elsewhere, and its arm is sent out of reach
+/// (tried: exit 0 with 3565 targets out of reach and ‖e‖ 55 mm). The run with the levelling
+/// reaches every target.
+#[test]
+fn unreachable_targets_fail_the_run() {
+    let runs = variants(&[String::new(), "[sim.navigation]\nlevelling_s = 0.0\n".to_string()]);
+    let (levelled, unlevelled) = (&runs[0], &runs[1]);
+    assert_eq!(levelled["unreachable_steps"].as_u64(), Some(0), "{levelled}");
+    let failure = unlevelled["failure"].as_str().unwrap_or_default();
+    let n = unlevelled["unreachable_steps"].as_u64().unwrap();
+    assert!(
+        n > 0 && failure.starts_with(&format!("sim: the arm could not reach {n} of the tool's targets")),
+        "{unlevelled}"
     );
 }
 

@@ -294,7 +294,8 @@ pub fn sim_stage(
         out.write_bytes(&format!("{name}.png"), &png)?;
     }
     let mut summary = serde_json::to_value(&run.summary).map_err(|e| Error::failed("summary", e))?;
-    let failure = operation_failure(trajectory, run.contact_depth_m, &run.summary, cfg);
+    let failure = operation_failure(trajectory, run.contact_depth_m, &run.summary, cfg)
+        .or_else(|| unreachable_failure(&run.summary, cfg));
     if let (Some(e), Some(map)) = (&failure, summary.as_object_mut()) {
         // The summary says it too: a script reading it sees the failure, not just figures.
         map.insert("failure".into(), e.to_string().into());
@@ -342,7 +343,7 @@ fn operation_failure(
         return None;
     }
     let asks = if force > 0.0 {
-        format!("asks for up to {force:.1} N")
+        format!("asks for up to {} N", crate::config::shown_to(force, 1))
     } else {
         format!("runs up to {:.1} mm inside the material", depth * 1e3)
     };
@@ -414,6 +415,23 @@ fn operation_failure(
             why.join("; ")
         ),
     ))
+}
+
+/// A failed run when the arm could not reach some of the tool's targets (the set-points held
+/// where they were): the path was not followed.
+fn unreachable_failure(summary: &SimSummary, cfg: &SimConfig) -> Option<Error> {
+    let n = summary.unreachable_steps;
+    (n > 0).then(|| {
+        Error::failed(
+            "sim",
+            format!(
+                "the arm could not reach {n} of the tool's targets ({:.3} s of the run; its set-points held): the path was not followed (the products are written; ‖e‖ up to {:.1} mm, the thrusters saturated in {:.1} % of the control periods)",
+                n as f64 / cfg.control_rate_hz,
+                1e3 * summary.figures.tool_deviation_max_m,
+                100.0 * summary.thrust_saturated_fraction
+            ),
+        )
+    })
 }
 
 /// A surface in the scan frame is placed in the world by the configuration's `[frames]`: they

@@ -605,13 +605,28 @@ pub fn simulate(
     }
     let speed = current.norm();
     if speed.is_nan() || speed > MAX_CURRENT_M_S {
-        return Err(Error::input(
-            "sim.controller_model",
-            format!(
-                "the controllers' estimate of the current at the station held before the run is {} m/s, faster than any sea: their vehicle's drag (the model's damping times vehicle_damping_scale) is too weak against their links' (times link_hydro_scale) to read the current from the thrust (or set [sim.vehicle] current_filter_s = 0 to assume still water)",
-                shown_to(speed, 2)
-            ),
-        ));
+        let (speed, sea) = (shown_to(speed, 2), shown_to(plant.system.current.norm(), 2));
+        let estimate = format!(
+            "the controllers' estimate of the current at the station held before the run is {speed} m/s (the sea's {sea} m/s), faster than any sea"
+        );
+        // With a water track the estimate is its reading; without, the thrust's through the
+        // controllers' model of the vehicle's drag.
+        return Err(if cfg.sensors.water_track_rate_hz > 0.0 {
+            Error::failed(
+                "sim",
+                format!(
+                    "{estimate}: the water track's mean reading, [sim.sensors] water_track_noise_m_s {} m/s over {pings} pings",
+                    shown(cfg.sensors.water_track_noise_m_s)
+                ),
+            )
+        } else {
+            Error::input(
+                "sim.controller_model",
+                format!(
+                    "{estimate}: their vehicle's drag (the model's damping times vehicle_damping_scale) is too weak against their links' (times link_hydro_scale) to read the current from the thrust (or set [sim.vehicle] current_filter_s = 0 to assume still water)"
+                ),
+            )
+        });
     }
     if moved >= HOLD_TOLERANCE_M_S {
         return Err(Error::failed(
@@ -979,8 +994,8 @@ pub fn check_plant_model(model: &UvmsModel) -> Result<()> {
     )
 }
 
-/// What only the trajectory tells of a run configured by `cfg`: its length in control periods
-/// (at most 10⁸) and a settling time that leaves a settled force to measure. `uvms run` asks
+/// What only the trajectory tells of a run configured by `cfg`: its length in plant steps
+/// (control periods times `plant_substeps`, at most 10⁸) and a settling time that leaves a settled force to measure. `uvms run` asks
 /// this of the plan before any stage writes. Returns the trajectory's first and last times.
 ///
 /// # Errors
@@ -990,17 +1005,20 @@ pub fn check_trajectory(trajectory: &Trajectory, cfg: &SimConfig) -> Result<(f64
         return Err(Error::input("trajectory", "has no samples"));
     };
     let (t0, t_end) = (first.t, last.t);
-    // The longest run the trajectory, the tail and the dwell's wait can make, in periods.
+    // The longest run the trajectory, the tail and the dwell's wait can make, in periods, and
+    // in the plant's steps (a fine control rate times many substeps is as long a run).
     let periods = (t_end - t0 + cfg.tail_s + cfg.dwell.max_wait_s) * cfg.control_rate_hz;
-    if periods.is_nan() || periods > MAX_PERIODS {
+    let steps = periods * cfg.plant_substeps as f64;
+    if steps.is_nan() || steps > MAX_STEPS {
         return Err(Error::input(
             "sim",
             format!(
-                "the run could take {periods:.3e} control periods (trajectory {:.3e} s, sim.tail_s {:.3e} s, sim.dwell.max_wait_s {:.3e} s at sim.control_rate_hz {}): at most {MAX_PERIODS:.0e}",
+                "the run could take {periods:.3e} control periods (trajectory {:.3e} s, sim.tail_s {:.3e} s, sim.dwell.max_wait_s {:.3e} s at sim.control_rate_hz {}) of sim.plant_substeps {} plant steps each: at most {MAX_STEPS:.0e} steps",
                 t_end - t0,
                 cfg.tail_s,
                 cfg.dwell.max_wait_s,
-                cfg.control_rate_hz
+                cfg.control_rate_hz,
+                cfg.plant_substeps
             ),
         ));
     }
@@ -1029,14 +1047,14 @@ pub fn check_trajectory(trajectory: &Trajectory, cfg: &SimConfig) -> Result<(f64
 /// scales, and its multibody.
 ///
 /// # Errors
-/// [`Error::Input`] naming `sim.controller_model` if the scaled model is none, or
+/// [`Error::Input`] naming `sim.controller_model` if the scaled model is not a valid one, or
 /// `sim.vehicle.current_filter_s` if its vehicle has no drag to read the current from.
 pub fn controllers_model(cfg: &SimConfig, plant_model: &UvmsModel) -> Result<(UvmsModel, Multibody)> {
     let model = cfg.controller_model.apply(plant_model);
     let system = Multibody::new(&model).map_err(|e| {
         Error::input(
             "sim.controller_model",
-            format!("the plant's model with these scales is none: {e}"),
+            format!("the controllers' model, the plant's with these scales, is not a valid model: {e}"),
         )
     })?;
     if cfg.vehicle.current_filter_s > 0.0 && system.vehicle.velocity_against_drag(&Vector3::zeros()).is_none()
@@ -1053,9 +1071,9 @@ pub fn controllers_model(cfg: &SimConfig, plant_model: &UvmsModel) -> Result<(Uv
 /// at 1 kHz.
 const MAX_WAIT_S: f64 = 1e5;
 
-/// The most control periods a run may take: 10⁸, a day of simulated time at 1 kHz (some
-/// ten minutes of computing at 150× real time).
-const MAX_PERIODS: f64 = 1e8;
+/// The most plant steps (control periods times substeps) a run may take: 10⁸, a day of
+/// simulated time at 1 kHz (some ten minutes of computing at 150× real time).
+const MAX_STEPS: f64 = 1e8;
 
 /// Iterations of the held station's fixed point, the step below which it has settled, m/s,
 /// and the share of the thrust's residual an iteration first takes. The full residual
