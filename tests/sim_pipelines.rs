@@ -619,6 +619,10 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
             "variant.toml: sim.scenario.current_smoothing_s: must be at least the control period (1/control_rate_hz = 0.001 s), got 0.0001",
         ),
         (
+            "[sim.scenario]\ncurrent_variation_m_s = [0.1, 0.0, 0.0]\ncurrent_correlation_s = 1e-9",
+            "variant.toml: sim.scenario.current_correlation_s: must be at least the control period (1/control_rate_hz = 0.001 s), got 1e-9",
+        ),
+        (
             "[sim.scenario]\ncurrent_smoothing_s = 1e6",
             "variant.toml: sim.scenario.current_smoothing_s: must be at most 1e5 s",
         ),

@@ -424,18 +424,29 @@ impl SimConfig {
         check_current("sim.scenario.current_m_s", self.scenario.current_m_s)?;
         self.scenario.check_variation()?;
         // The plant holds the water's rate over a control period: a lag shorter than the
-        // period would be lost between the samples.
-        require(
-            !self.scenario.current_varies()
-                || self.scenario.current_smoothing_s.is_nan()
-                || self.scenario.current_smoothing_s * self.control_rate_hz >= 1.0,
-            "sim.scenario.current_smoothing_s",
-            format!(
-                "must be at least the control period (1/control_rate_hz = {} s), got {}",
-                shown(1.0 / self.control_rate_hz),
-                shown(self.scenario.current_smoothing_s)
+        // period would be lost between the samples. A correlation time shorter than it makes
+        // the fluctuation white between the samples, its driving part `(τ + τ_s)/τ` times the
+        // current's variance (1e-9 s: the water accelerating at 10³ m/s², a runaway at once).
+        for (key, v) in [
+            (
+                "sim.scenario.current_smoothing_s",
+                self.scenario.current_smoothing_s,
             ),
-        )?;
+            (
+                "sim.scenario.current_correlation_s",
+                self.scenario.current_correlation_s,
+            ),
+        ] {
+            require(
+                !self.scenario.current_varies() || v.is_nan() || v * self.control_rate_hz >= 1.0,
+                key,
+                format!(
+                    "must be at least the control period (1/control_rate_hz = {} s), got {}",
+                    shown(1.0 / self.control_rate_hz),
+                    shown(v)
+                ),
+            )?;
+        }
         positive("sim.dwell.tolerance_n", self.dwell.tolerance_n)?;
         non_negative("sim.dwell.hold_s", self.dwell.hold_s)?;
         non_negative("sim.dwell.max_wait_s", self.dwell.max_wait_s)?;
@@ -995,8 +1006,9 @@ pub fn check_plant_model(model: &UvmsModel) -> Result<()> {
 }
 
 /// What only the trajectory tells of a run configured by `cfg`: its length in plant steps
-/// (control periods times `plant_substeps`, at most 10⁸) and a settling time that leaves a settled force to measure. `uvms run` asks
-/// this of the plan before any stage writes. Returns the trajectory's first and last times.
+/// (control periods times `plant_substeps`, at most 10⁸) and a settling time that leaves a
+/// settled force to measure. `uvms run` asks this of the plan before any stage writes.
+/// Returns the trajectory's first and last times.
 ///
 /// # Errors
 /// [`Error::Input`] naming the trajectory or the key.
