@@ -98,11 +98,9 @@ pub struct OutDir {
 impl Drop for OutDir {
     fn drop(&mut self) {
         for dir in &self.created {
-            // Stops at the first folder that holds anything (one `create_dir_all` did not
-            // get to is passed over).
-            match fs::remove_dir(dir) {
-                Err(e) if e.kind() != std::io::ErrorKind::NotFound => break,
-                _ => {}
+            // Stops at the first folder that holds anything.
+            if fs::remove_dir(dir).is_err() {
+                break;
             }
         }
     }
@@ -144,18 +142,29 @@ impl OutDir {
                 ));
             }
         }
-        let created: Vec<PathBuf> = dir
+        let missing: Vec<&Path> = dir
             .ancestors()
             .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
-            .map(Path::to_path_buf)
             .collect();
-        let out = OutDir {
+        let mut out = OutDir {
             dir: dir.to_path_buf(),
             products,
-            created,
+            created: Vec::new(),
         };
-        fs::create_dir_all(dir)
-            .map_err(|e| Error::input(dir.display(), format!("cannot create the output folder: {e}")))?;
+        // Level by level, each folder listed only if this run made it (not one another run
+        // made meanwhile, nor `new/..`, which is there once `new` is).
+        for d in missing.into_iter().rev() {
+            match fs::create_dir(d) {
+                Ok(()) => out.created.insert(0, d.to_path_buf()),
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+                Err(e) => {
+                    return Err(Error::input(
+                        dir.display(),
+                        format!("cannot create the output folder: {e}"),
+                    ));
+                }
+            }
+        }
         // A folder the command could not write in is found before any stage runs.
         let (probe, file) = Unfinished::create(dir.join(temporary("write-check")))
             .map_err(|e| Error::input(dir.display(), format!("cannot write in the output folder: {e}")))?;
@@ -190,6 +199,9 @@ impl OutDir {
             ));
         }
         let stage = format!("write {}", target.display());
+        // Another run into the same new folder that stopped before writing anything removes
+        // it as it ends: made again.
+        fs::create_dir_all(&self.dir).map_err(|e| Error::failed(&stage, e))?;
         // Never truncate an existing file, should one have the temporary name.
         let (tmp, file) =
             Unfinished::create(self.dir.join(temporary(name))).map_err(|e| Error::failed(&stage, e))?;

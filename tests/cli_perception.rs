@@ -224,7 +224,8 @@ fn no_cluster_fitting_the_reference_is_exit_1() {
         "{}",
         stderr(&o)
     );
-    assert_eq!(whole(&model).status.code(), Some(0));
+    let o = whole(&model);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
 
 #[test]

@@ -34,7 +34,8 @@ pub struct CheckArgs {
     /// `"t_scan_reference"`.
     #[arg(long, default_value = "auto")]
     pub init: String,
-    /// The scan is the object already: no seabed removal, no clustering.
+    /// The scan is the object already: no seabed removal, no clustering (its spans must
+    /// still fit the reference's, as a cluster's must).
     #[arg(long)]
     pub whole_scan: bool,
     /// Perception configuration (TOML).

@@ -408,8 +408,9 @@ fn operation_failure(
     Some(Error::failed(
         "sim",
         format!(
-            "the force along k settled at {:.2} N on average against the {force:.1} N asked for, {:.2} N off, beyond sim.dwell.tolerance_n = {} N (the products are written; {})",
+            "the force along k settled at {:.2} N on average against the {} N asked for, {:.2} N off, beyond sim.dwell.tolerance_n = {} N (the products are written; {})",
             figures.force_settled_mean_n,
+            crate::config::shown_to(force, 1),
             off.abs(),
             cfg.dwell.tolerance_n,
             why.join("; ")
@@ -417,8 +418,9 @@ fn operation_failure(
     ))
 }
 
-/// A failed run when the arm could not reach some of the tool's targets (the set-points held
-/// where they were): the path was not followed.
+/// A failed run when the arm could not reach some of the tool's targets along the path (the
+/// set-points held where they were; the tail after the path does not count): the path was
+/// not followed.
 fn unreachable_failure(summary: &SimSummary, cfg: &SimConfig) -> Option<Error> {
     let n = summary.unreachable_steps;
     (n > 0).then(|| {

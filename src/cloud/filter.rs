@@ -317,7 +317,9 @@ pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<Voxe
 /// Statistical outlier removal (k-NN mean distance against mean + `std_ratio`·σ).
 ///
 /// A cloud with fewer than two points is returned unchanged; with fewer than `neighbours + 1`
-/// points every other point is a neighbour.
+/// points every other point is a neighbour. Neighbours whose distance overflows (a point
+/// some 1e154 m away) are left out of a point's mean; a point with no other neighbour is an
+/// outlier whatever the threshold, and out of the statistics.
 ///
 /// # Errors
 /// [`Error::Input`] if `neighbours` is not between 1 and [`MAX_OUTLIER_NEIGHBOURS`] or
@@ -338,14 +340,31 @@ pub fn remove_statistical_outliers(cloud: &PointCloud, config: &OutlierConfig) -
         });
     }
     let k = config.neighbours.min(n - 1);
-    let mean_d = map_knn(&cloud.points, k, |_, nb| {
-        nb.iter().map(|x| x.distance).sum::<f64>() / nb.len().max(1) as f64
-    })?;
-    // A point so far from the rest that its distance overflows is an outlier, and out of the
-    // statistics. The others' are taken in units of a power of two near the largest (exact:
-    // the same figures as unscaled), so that the squares cannot overflow: one stray point at
+    // A neighbour so far that its distance overflows does not count in a point's mean (in a
+    // small cloud a stray point is every point's neighbour); a point with no other neighbour
+    // is the stray one: its mean is infinite, an outlier, and out of the statistics. The
+    // others' are taken in units of a power of two near the largest (the same figures as
+    // unscaled, barring subnormals), so that the squares cannot overflow: one stray point at
     // 1e160 m must not make the threshold NaN and empty the cloud.
+    let mean_d = map_knn(&cloud.points, k, |_, nb| {
+        let (sum, m) = nb
+            .iter()
+            .filter(|x| x.distance.is_finite())
+            .fold((0.0, 0usize), |(s, m), x| (s + x.distance, m + 1));
+        if m == 0 { f64::INFINITY } else { sum / m as f64 }
+    })?;
     let finite: Vec<f64> = mean_d.iter().copied().filter(|d| d.is_finite()).collect();
+    if finite.is_empty() {
+        // No two points within a finite distance of each other: nothing to judge by, as
+        // with fewer than two points.
+        return Ok(OutlierResult {
+            cloud: cloud.clone(),
+            kept: (0..n).collect(),
+            mean_distance_m: 0.0,
+            std_distance_m: 0.0,
+            threshold_m: 0.0,
+        });
+    }
     let largest = finite.iter().copied().fold(0.0, f64::max);
     let unit = if largest > 0.0 {
         largest.log2().floor().exp2()
@@ -547,6 +566,14 @@ mod tests {
             assert_eq!(r.threshold_m, alone.threshold_m, "a point at {far:e} m");
             pts.pop();
         }
+        // In a cloud as small as the neighbourhood the stray point is every point's neighbour:
+        // it still goes alone.
+        let mut few = grid.points[..20].to_vec();
+        few.push(Point3::new(1e160, 0.0, 0.0));
+        let r =
+            remove_statistical_outliers(&PointCloud::from_points(few), &OutlierConfig::default()).unwrap();
+        assert_eq!(r.kept.len(), 20, "{:?}", r.threshold_m);
+        assert!(r.kept.iter().all(|&i| i < 20));
     }
 
     #[test]

@@ -482,7 +482,8 @@ pub struct SimSummary {
     pub simulated_s: f64,
     /// Extra time spent at the end of the dwell waiting for the force to settle, s.
     pub dwell_wait_s: f64,
-    /// Control periods in which the corrected tool pose had no IK solution (set-point held).
+    /// Control periods along the path (not the tail after it) in which the corrected tool pose
+    /// had no IK solution (set-point held).
     pub unreachable_steps: usize,
     /// Fraction of control periods with the thrust command scaled down to the limits.
     pub thrust_saturated_fraction: f64,
@@ -626,8 +627,9 @@ pub fn simulate(
             Error::failed(
                 "sim",
                 format!(
-                    "{estimate}: the water track's mean reading, [sim.sensors] water_track_noise_m_s {} m/s over {pings} pings",
-                    shown(cfg.sensors.water_track_noise_m_s)
+                    "{estimate}: the water track's mean reading, [sim.sensors] water_track_noise_m_s {} m/s over {} pings",
+                    shown(cfg.sensors.water_track_noise_m_s),
+                    pings.max(1)
                 ),
             )
         } else {
@@ -787,7 +789,9 @@ pub fn simulate(
             .map_err(out_of_range)?
         {
             Some(q) => q_set = q,
-            None => unreachable += 1,
+            // Along the path; in the tail the last target is held and the run is done.
+            None if clock <= t_end => unreachable += 1,
+            None => {}
         }
         // The set-points' rate from the desired tool motion alone (the trajectory and the
         // FCU's offset), the vehicle held where NS believes it now: the target of the last
@@ -1025,7 +1029,7 @@ pub fn check_trajectory(trajectory: &Trajectory, cfg: &SimConfig) -> Result<(f64
         return Err(Error::input(
             "sim",
             format!(
-                "the run could take {periods:.3e} control periods (trajectory {:.3e} s, sim.tail_s {:.3e} s, sim.dwell.max_wait_s {:.3e} s at sim.control_rate_hz {}) of sim.plant_substeps {} plant steps each: at most {MAX_STEPS:.0e} steps",
+                "the run could take {periods:.3e} control periods (trajectory {:.3e} s, sim.tail_s {:.3e} s, sim.dwell.max_wait_s {:.3e} s at sim.control_rate_hz {}) of sim.plant_substeps {} plant steps each, {steps:.3e} steps: at most {MAX_STEPS:.0e}",
                 t_end - t0,
                 cfg.tail_s,
                 cfg.dwell.max_wait_s,
