@@ -330,14 +330,16 @@ pub fn voxel_downsample(cloud: &PointCloud, config: &VoxelConfig) -> Result<Voxe
 pub fn remove_statistical_outliers(cloud: &PointCloud, config: &OutlierConfig) -> Result<OutlierResult> {
     config.validate("outliers")?;
     let n = cloud.len();
+    // Nothing to judge by: the cloud as it is.
+    let unchanged = || OutlierResult {
+        cloud: cloud.clone(),
+        kept: (0..n).collect(),
+        mean_distance_m: 0.0,
+        std_distance_m: 0.0,
+        threshold_m: 0.0,
+    };
     if n < 2 {
-        return Ok(OutlierResult {
-            cloud: cloud.clone(),
-            kept: (0..n).collect(),
-            mean_distance_m: 0.0,
-            std_distance_m: 0.0,
-            threshold_m: 0.0,
-        });
+        return Ok(unchanged());
     }
     let k = config.neighbours.min(n - 1);
     // A neighbour so far that its distance overflows does not count in a point's mean (in a
@@ -355,15 +357,8 @@ pub fn remove_statistical_outliers(cloud: &PointCloud, config: &OutlierConfig) -
     })?;
     let finite: Vec<f64> = mean_d.iter().copied().filter(|d| d.is_finite()).collect();
     if finite.is_empty() {
-        // No two points within a finite distance of each other: nothing to judge by, as
-        // with fewer than two points.
-        return Ok(OutlierResult {
-            cloud: cloud.clone(),
-            kept: (0..n).collect(),
-            mean_distance_m: 0.0,
-            std_distance_m: 0.0,
-            threshold_m: 0.0,
-        });
+        // No two points within a finite distance of each other, as with fewer than two.
+        return Ok(unchanged());
     }
     let largest = finite.iter().copied().fold(0.0, f64::max);
     let unit = if largest > 0.0 {
