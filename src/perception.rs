@@ -27,7 +27,7 @@ use crate::mesh::TriangleMesh;
 use crate::register::{InitMode, ReferenceModel, RegisterConfig, Registration, ScanNormals, register};
 use crate::segment::cluster::{Cluster, ClusterConfig, euclidean_clusters};
 use crate::segment::seabed::{SeabedConfig, SeabedFit, find_seabed, object_side};
-use crate::segment::select::{SelectConfig, Selection, select_cluster, span_score};
+use crate::segment::select::{SelectConfig, Selection, select_cluster, span_score, spans_text};
 use crate::spatial::KdIndex;
 use crate::surface::Surface;
 use crate::triangulate::{SurfaceConfig, triangulate_view};
@@ -445,12 +445,12 @@ pub fn check(
         if let Some(shape) = principal_axes(&cloud.points, cfg.cluster.span_quantile)
             && span_score(&shape.spans, &model.shape.spans, &cfg.select).is_none()
         {
-            let [s, r] =
-                [shape.spans, model.shape.spans].map(|v| format!("{:.3}×{:.3}×{:.3}", v[0], v[1], v[2]));
             return Err(Error::failed(
                 "select",
                 format!(
-                    "--whole-scan: the scan's {s} m does not fit the reference's {r} m within a factor {} (select.max_span_ratio): not the reference's object?",
+                    "--whole-scan: the scan's {} m does not fit the reference's {} m within a factor {} (select.max_span_ratio): not the reference's object?",
+                    spans_text(&shape.spans),
+                    spans_text(&model.shape.spans),
                     cfg.select.max_span_ratio
                 ),
             ));

@@ -342,8 +342,9 @@ fn operation_failure(
     if force <= 0.0 && depth <= cfg.dwell.tolerance_n / cfg.contact.stiffness_n_m {
         return None;
     }
+    let asked = crate::config::shown_to(force, 1);
     let asks = if force > 0.0 {
-        format!("asks for up to {} N", crate::config::shown_to(force, 1))
+        format!("asks for up to {asked} N")
     } else {
         format!("runs up to {:.1} mm inside the material", depth * 1e3)
     };
@@ -408,9 +409,8 @@ fn operation_failure(
     Some(Error::failed(
         "sim",
         format!(
-            "the force along k settled at {:.2} N on average against the {} N asked for, {:.2} N off, beyond sim.dwell.tolerance_n = {} N (the products are written; {})",
+            "the force along k settled at {:.2} N on average against the {asked} N asked for, {:.2} N off, beyond sim.dwell.tolerance_n = {} N (the products are written; {})",
             figures.force_settled_mean_n,
-            crate::config::shown_to(force, 1),
             off.abs(),
             cfg.dwell.tolerance_n,
             why.join("; ")

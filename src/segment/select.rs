@@ -70,6 +70,11 @@ pub fn span_score(s: &Vector3<f64>, r: &Vector3<f64>, cfg: &SelectConfig) -> Opt
         .then(|| l1.abs() + l2.abs() + cfg.depth_weight * l3)
 }
 
+/// Spans for a message, millimetre-rounded: `0.715×0.349×0.349`.
+pub fn spans_text(s: &Vector3<f64>) -> String {
+    format!("{:.3}×{:.3}×{:.3}", s[0], s[1], s[2])
+}
+
 /// Chooses the object's cluster among `clusters` (largest first), by its fit to the model's spans
 /// `reference_spans` (decreasing, metres) or, without them, the largest.
 ///
@@ -106,20 +111,16 @@ pub fn select_cluster(
             let closest = clusters
                 .iter()
                 .take(5)
-                .map(|c| {
-                    format!(
-                        "{:.3}×{:.3}×{:.3}",
-                        c.shape.spans[0], c.shape.spans[1], c.shape.spans[2]
-                    )
-                })
+                .map(|c| spans_text(&c.shape.spans))
                 .collect::<Vec<_>>()
                 .join(", ");
             Err(Error::failed(
                 "select",
                 format!(
-                    "no cluster fits the reference's {:.3}×{:.3}×{:.3} m within a factor {} \
+                    "no cluster fits the reference's {} m within a factor {} \
                      (largest clusters: {closest} m)",
-                    r[0], r[1], r[2], cfg.max_span_ratio
+                    spans_text(r),
+                    cfg.max_span_ratio
                 ),
             ))
         }
