@@ -14,7 +14,7 @@
 
 use std::fmt::Write as _;
 
-/// One line of a panel: `y` against `x`, in the panel's next palette colour.
+/// One line of a panel: `y` against `x`.
 ///
 /// Points whose `x` or `y` is not finite are skipped and break the line. If `x` and `y` differ
 /// in length, the values past the shorter one are ignored.
@@ -26,6 +26,22 @@ pub struct Series {
     pub x: Vec<f64>,
     /// Ordinates, on the panel's axis.
     pub y: Vec<f64>,
+    /// Index into the fixed 10-colour palette (which repeats after 10); `None` takes the
+    /// series' position in its panel.
+    pub color: Option<usize>,
+    /// How the line is drawn.
+    pub stroke: Stroke,
+}
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Stroke {
+    /// A line of the figure's width in the series' colour.
+    #[default]
+    Line,
+    /// Four times as wide in a pale tint of the colour, drawn under every `Line` of its panel:
+    /// a reference (e.g. the true value) that stays visible beneath the line that tracks it.
+    Band,
 }
 
 /// One plot area with its own y axis, title and legend.
@@ -35,7 +51,7 @@ pub struct Panel {
     pub title: String,
     /// Written vertically left of the y axis; may be empty.
     pub y_label: String,
-    /// The lines, coloured in order from a fixed 10-colour palette (which repeats after 10).
+    /// The lines, in legend order; bands are drawn first, then the lines.
     pub series: Vec<Series>,
 }
 
@@ -535,9 +551,11 @@ fn draw<C: Canvas>(fig: &Figure, l: &Layout, c: &mut C) {
                 GRID,
             );
         }
-        for (k, s) in p.series.iter().enumerate() {
-            let runs = reduce(s, &l.x_axis, ya, r);
-            c.polylines(&runs, l.lw, PALETTE[k % PALETTE.len()]);
+        for stroke in [Stroke::Band, Stroke::Line] {
+            for (k, s) in p.series.iter().enumerate().filter(|(_, s)| s.stroke == stroke) {
+                let (lw, color) = pen(s, k, l.lw);
+                c.polylines(&reduce(s, &l.x_axis, ya, r), lw, color);
+            }
         }
         c.stroke_rect(r, f, BLACK);
         for (&y, label) in ys.iter().zip(&ya.labels) {
@@ -620,17 +638,27 @@ fn legend<C: Canvas>(c: &mut C, l: &Layout, p: &Panel, r: Rect) {
     let row_mid = |k: usize| b.y + l.pad / 2.0 + l.lh * (k as f64 + 0.5);
     for (k, s) in p.series.iter().take(shown).enumerate() {
         let y = row_mid(k);
+        let (lw, color) = pen(s, k, l.lw);
         let bar = Rect {
             x: b.x + l.pad,
-            y: (y - l.lw).round(),
+            y: (y - lw).round(),
             w: 2.5 * l.cw,
-            h: (2.0 * l.lw).round(),
+            h: (2.0 * lw).round(),
         };
-        c.fill_rect(bar, PALETTE[k % PALETTE.len()]);
+        c.fill_rect(bar, color);
         c.text(text_x, y, &truncate(&s.label, l.legend_chars), t);
     }
     if shown < n {
         c.text(text_x, row_mid(shown), &more_text(n - shown), t);
+    }
+}
+
+/// Line width and colour of series `s`, the `k`-th of its panel, for the figure's width `lw`.
+fn pen(s: &Series, k: usize, lw: f64) -> (f64, Rgb) {
+    let c = PALETTE[s.color.unwrap_or(k) % PALETTE.len()];
+    match s.stroke {
+        Stroke::Line => (lw, c),
+        Stroke::Band => (4.0 * lw, c.map(|v| 255 - ((255 - v) as f32 * 0.4).round() as u8)),
     }
 }
 
@@ -1431,6 +1459,7 @@ mod tests {
             label: label.to_string(),
             x,
             y,
+            ..Series::default()
         }
     }
 
@@ -1506,6 +1535,56 @@ mod tests {
         // The frame is black; the margin right of it, below the legend, white.
         assert_eq!(pixel(r.x, r.y + r.h / 2.0), BLACK);
         assert_eq!(pixel(r.x + r.w + 2.0, r.y + r.h - 2.0), WHITE);
+    }
+
+    #[test]
+    fn a_band_lies_under_the_line_of_its_colour_whatever_the_order() {
+        // The line listed first, its reference band second, both in palette colour 3.
+        let shade = |stroke| Series {
+            color: Some(3),
+            stroke,
+            ..series("s", vec![0.0, 1.0], vec![0.5, 0.5])
+        };
+        let fig = Figure {
+            panels: vec![Panel {
+                series: vec![shade(Stroke::Line), shade(Stroke::Band)],
+                ..Panel::default()
+            }],
+            ..Figure::default()
+        };
+        let l = layout(&fig, 1200, 900);
+        let (r, ya) = &l.panels[0];
+        let xt = &l.x_axis.ticks;
+        let px = l.x_axis.map((xt[0] + xt[1]) / 2.0, r.x, r.x + r.w);
+        let py = ya.map(0.5, r.y + r.h, r.y);
+        let raster = render(&fig, 1200, 900);
+        let pixel = |dy: f64| {
+            let i = (((py + dy).floor() as usize) * 1200 + px as usize) * 3;
+            [raster.rgb[i], raster.rgb[i + 1], raster.rgb[i + 2]]
+        };
+        let line = PALETTE[3];
+        let tint = line.map(|v| 255 - ((255 - v) as f32 * 0.4).round() as u8);
+        // On the line its full colour (the band did not paint over it); beside it, within the
+        // band's half width of 2 line widths, the tint; past the band, white.
+        assert_eq!(pixel(0.0), line);
+        for side in [-1.0, 1.0] {
+            let column: Vec<Rgb> = (1..=6).map(|d| pixel(side * f64::from(d))).collect();
+            assert!(column.contains(&tint), "{column:?}");
+            assert_eq!(pixel(side * 3.0 * l.lw), WHITE);
+        }
+        // The SVG draws the band first, four times as wide, in the tint.
+        let svg = to_svg(&fig, 1200, 900);
+        let polylines: Vec<&str> = svg.lines().filter(|s| s.starts_with("<polyline")).collect();
+        let pen = |c: Rgb, w: f64| {
+            let mut s = String::from("stroke=\"");
+            push_color(&mut s, c);
+            s.push_str("\" stroke-width=\"");
+            push_num(&mut s, w);
+            s
+        };
+        assert_eq!(polylines.len(), 2);
+        assert!(polylines[0].contains(&pen(tint, 4.0 * l.lw)), "{}", polylines[0]);
+        assert!(polylines[1].contains(&pen(line, l.lw)), "{}", polylines[1]);
     }
 
     #[test]

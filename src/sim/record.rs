@@ -19,7 +19,7 @@ use super::Scenario;
 use crate::arm::JointVector;
 use crate::error::{Error, Result};
 use crate::multibody::State;
-use crate::plot::{Figure, Panel, Series};
+use crate::plot::{Figure, Panel, Series, Stroke};
 use crate::trajectory::{Phase, Sample};
 use nalgebra::{Isometry3, Vector3};
 use serde::Serialize;
@@ -468,13 +468,37 @@ fn series(rows: &[Row], label: &str, f: impl Fn(&Row) -> f64) -> Series {
         label: label.to_string(),
         x: rows.iter().map(|r| r.t).collect(),
         y: rows.iter().map(f).collect(),
+        ..Series::default()
     }
 }
 
+/// `s` in palette colour `color`, drawn as `stroke`.
+fn styled(s: Series, color: usize, stroke: Stroke) -> Series {
+    Series {
+        color: Some(color),
+        stroke,
+        ..s
+    }
+}
+
+/// A reference drawn as a band of colour `color` with the line of colour `color` that tracks it.
+fn tracked(reference: Series, line: Series, color: usize) -> [Series; 2] {
+    [
+        styled(reference, color, Stroke::Band),
+        styled(line, color, Stroke::Line),
+    ]
+}
+
+/// The identification limit the seed reports for the joint moments, N·m, drawn in their error
+/// panel.
+const SEED_MOMENT_ERROR_NM: f64 = 0.5;
+
 /// The run's figures after the seed's: `joint_moments` (Figures 6 and 12: external moments,
-/// true and identified), `force` (Figures 7 and 13: the force components in `G` and the force
-/// along `k` against its setpoint), `deviations` (Figures 8 and 15: `‖r‖`, `‖e‖`, φ θ ψ) and
-/// `joints` (Figure 14: joint coordinates and their references).
+/// true and identified, and the identification error), `force` (Figures 7 and 13: the force
+/// components in `G` and the force along `k`, true and identified, against its setpoint, and
+/// the identification error along `k`), `deviations` (Figures 8 and 15: `‖r‖`, `‖e‖`, φ θ ψ)
+/// and `joints` (Figure 14: joint coordinates and their references). A true value or a
+/// reference is a pale band under the line of the same colour that identifies or tracks it.
 pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)> {
     let tag = if scenario.open_loop && scenario.trajectory_correction && scenario.force_loop {
         String::new()
@@ -486,36 +510,73 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
             on(scenario.force_loop)
         )
     };
-    let moments = joint_panels(
+    let mut moments = joint_panels(
         rows,
         ("External joint moments", "N m"),
         ["M", " true", " identified"],
         |r| (&r.m_ez_true, &r.m_ez_id),
     );
+    let (t0, t1) = (
+        rows.first().map_or(0.0, |r| r.t),
+        rows.last().map_or(0.0, |r| r.t),
+    );
+    let limit = Series {
+        label: format!("+-{SEED_MOMENT_ERROR_NM} N m (seed)"),
+        x: vec![t0, t1, f64::NAN, t0, t1],
+        y: vec![
+            SEED_MOMENT_ERROR_NM,
+            SEED_MOMENT_ERROR_NM,
+            f64::NAN,
+            -SEED_MOMENT_ERROR_NM,
+            -SEED_MOMENT_ERROR_NM,
+        ],
+        color: Some(7),
+        stroke: Stroke::Line,
+    };
+    moments.push(Panel {
+        title: "Identification error of the joint moments, identified - true".into(),
+        y_label: "N m".into(),
+        series: (0..6)
+            .map(|j| {
+                let e = series(rows, &format!("M{}", j + 1), move |r| {
+                    r.m_ez_id[j] - r.m_ez_true[j]
+                });
+                styled(e, j, Stroke::Line)
+            })
+            .chain([limit])
+            .collect(),
+    });
     let comps = ["x", "y", "z"];
     let force = vec![
         Panel {
-            title: "Force on the tool, tool frame G (true)".into(),
+            title: "Force on the tool, tool frame G".into(),
             y_label: "N".into(),
             series: (0..3)
-                .map(|c| series(rows, &format!("F{} true", comps[c]), move |r| r.fe_true[c]))
-                .collect(),
-        },
-        Panel {
-            title: "Force on the tool, tool frame G (identified)".into(),
-            y_label: "N".into(),
-            series: (0..3)
-                .map(|c| series(rows, &format!("F{} identified", comps[c]), move |r| r.fe_id[c]))
+                .flat_map(|c| {
+                    tracked(
+                        series(rows, &format!("F{} true", comps[c]), move |r| r.fe_true[c]),
+                        series(rows, &format!("F{} identified", comps[c]), move |r| r.fe_id[c]),
+                        c,
+                    )
+                })
                 .collect(),
         },
         Panel {
             title: "Force along k".into(),
             y_label: "N".into(),
-            series: vec![
+            series: tracked(
                 series(rows, "true", |r| r.f_k_true),
                 series(rows, "identified", |r| r.f_k_id),
-                series(rows, "desired", |r| r.f_set),
-            ],
+                0,
+            )
+            .into_iter()
+            .chain([styled(series(rows, "desired", |r| r.f_set), 3, Stroke::Line)])
+            .collect(),
+        },
+        Panel {
+            title: "Identification error of the force along k, identified - true".into(),
+            y_label: "N".into(),
+            series: vec![series(rows, "Fk", |r| r.f_k_id - r.f_k_true)],
         },
     ];
     let deviations = vec![
@@ -537,8 +598,8 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
                 .collect(),
         },
     ];
-    let joints = joint_panels(rows, ("Joint coordinates", "rad"), ["q", "", "*"], |r| {
-        (&r.q, &r.q_ref)
+    let joints = joint_panels(rows, ("Joint coordinates", "rad"), ["q", "*", ""], |r| {
+        (&r.q_ref, &r.q)
     });
     let fig = |title: &str, panels| Figure {
         title: format!("{title}{tag}"),
@@ -553,29 +614,26 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
     ]
 }
 
-/// Two panels (joints 1-3, 4-6) of a pair of joint vectors per row, e.g. true and identified;
-/// the series of joint `j` are named `{name}{j}{first}` and `{name}{j}{second}`.
+/// Two panels (joints 1-3, 4-6) of a pair of joint vectors per row, a reference (e.g. true) and
+/// the value that identifies or tracks it, in the joint's colour; the series of joint `j` are
+/// named `{name}{j}{first}` and `{name}{j}{second}`.
 fn joint_panels(
     rows: &[Row],
     (title, unit): (&str, &str),
     [name, first, second]: [&str; 3],
     pair: fn(&Row) -> (&JointVector, &JointVector),
 ) -> Vec<Panel> {
-    let suffixes = [first, second];
     (0..2)
         .map(|g| Panel {
             title: format!("{title}, joints {}-{}", 3 * g + 1, 3 * g + 3),
             y_label: unit.into(),
             series: (3 * g..3 * g + 3)
                 .flat_map(|j| {
-                    [
-                        series(rows, &format!("{name}{}{}", j + 1, suffixes[0]), move |r| {
-                            pair(r).0[j]
-                        }),
-                        series(rows, &format!("{name}{}{}", j + 1, suffixes[1]), move |r| {
-                            pair(r).1[j]
-                        }),
-                    ]
+                    tracked(
+                        series(rows, &format!("{name}{}{first}", j + 1), move |r| pair(r).0[j]),
+                        series(rows, &format!("{name}{}{second}", j + 1), move |r| pair(r).1[j]),
+                        j,
+                    )
                 })
                 .collect(),
         })
@@ -697,5 +755,83 @@ mod tests {
         assert_eq!(f.moment_id_error_contact_max_nm, Some(100.0));
         assert_eq!(f.thrust_utilisation_contact_median, Some(0.51));
         assert_eq!(f.thrust_utilisation_contact_max, Some(1.0));
+    }
+
+    fn row(t: f64) -> Row {
+        let v = |k: f64| JointVector::from_fn(|j, _| k * t + j as f64);
+        Row {
+            t,
+            clock: t,
+            phase: Phase::Contact,
+            q: v(0.1),
+            q_ref: v(0.2),
+            tau: v(0.0),
+            m_ez_true: v(1.0),
+            m_ez_id: v(1.5),
+            fe_true: Vector3::new(t, 2.0 * t, 3.0 * t),
+            fe_id: Vector3::new(t, 2.0 * t, 3.5 * t),
+            f_k_true: 60.0 * t,
+            f_k_id: 61.0 * t,
+            f_set: 60.0,
+            offset: 0.0,
+            tool: Vector3::zeros(),
+            e: Vector3::zeros(),
+            r: Vector3::zeros(),
+            rpy: [0.0; 3],
+            current: Vector3::zeros(),
+            thrusts: vec![0.0; 8],
+            contact: true,
+        }
+    }
+
+    #[test]
+    fn figures_draw_each_reference_as_a_band_under_its_line_and_plot_the_errors() {
+        let rows: Vec<Row> = (0..5).map(|k| row(f64::from(k) * 0.1)).collect();
+        let figs = figures(&rows, &Scenario::default());
+        let panels = |name: &str| &figs.iter().find(|(n, _)| *n == name).unwrap().1.panels;
+        // Every band (a true value or a reference) is followed by the line of its colour.
+        for (name, _) in &figs {
+            for p in panels(name) {
+                for (k, s) in p.series.iter().enumerate() {
+                    if s.stroke == Stroke::Band {
+                        let line = &p.series[k + 1];
+                        assert_eq!((line.stroke, line.color), (Stroke::Line, s.color), "{name}");
+                    }
+                }
+            }
+        }
+        // Joint moments: true as bands, one colour per joint over both panels, then the error.
+        let m = panels("joint_moments");
+        assert_eq!(m.len(), 3);
+        for (g, p) in m[..2].iter().enumerate() {
+            for (k, s) in p.series.iter().enumerate() {
+                let j = 3 * g + k / 2;
+                assert_eq!(s.color, Some(j));
+                let (stroke, label, value) = if k % 2 == 0 {
+                    (Stroke::Band, format!("M{} true", j + 1), rows[4].m_ez_true[j])
+                } else {
+                    (Stroke::Line, format!("M{} identified", j + 1), rows[4].m_ez_id[j])
+                };
+                assert_eq!((s.stroke, &s.label, s.y[4]), (stroke, &label, value));
+            }
+        }
+        for (j, s) in m[2].series[..6].iter().enumerate() {
+            for (y, r) in s.y.iter().zip(&rows) {
+                assert!((y - (r.m_ez_id[j] - r.m_ez_true[j])).abs() < 1e-12);
+            }
+        }
+        let limit = &m[2].series[6];
+        assert_eq!(limit.y[..2], [SEED_MOMENT_ERROR_NM; 2]);
+        assert_eq!(limit.y[3..], [-SEED_MOMENT_ERROR_NM; 2]);
+        assert_eq!((limit.x[0], limit.x[1]), (0.0, 0.4));
+        // Force: the error along k is identified minus true.
+        let f = panels("force");
+        for (y, r) in f[2].series[0].y.iter().zip(&rows) {
+            assert!((y - (r.f_k_id - r.f_k_true)).abs() < 1e-12);
+        }
+        // Joints: the reference q* is the band, the measured q the line.
+        let q = &panels("joints")[1].series;
+        assert_eq!((q[0].label.as_str(), q[0].stroke), ("q4*", Stroke::Band));
+        assert_eq!((q[0].y[2], q[1].y[2]), (rows[2].q_ref[3], rows[2].q[3]));
     }
 }
