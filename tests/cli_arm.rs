@@ -64,6 +64,9 @@ fn every_query_gives_the_reference_values() {
     let mm = arm_json(&[&["mass-matrix"], &base[..]].concat());
     assert!(max_diff(&mm["mass_matrix"], &out["mass_matrix_with_armature"]) < 1e-9);
     assert!(max_diff(&mm["mass_matrix_rigid"], &out["mass_matrix_rigid"]) < 1e-9);
+    // The summary names the query as it is typed.
+    assert_eq!(mm["query"], "mass-matrix");
+    assert_eq!(fk["query"], "fk");
     let id = arm_json(&[&["id"], &base[..], &["--qd", &qd, "--qdd", &qdd]].concat());
     assert!(max_diff(&id["tau"], &out["tau_rne_full_rtb"]) < 1e-9);
     assert!(max_diff(&id["tau_rigid"], &out["tau_rne_rigid"]) < 1e-9);

@@ -66,6 +66,14 @@ pub struct ArmArgs {
     pub pose: Option<[f64; 16]>,
 }
 
+/// The query as typed on the command line (`mass-matrix`).
+fn query_name(query: ArmQuery) -> String {
+    use clap::ValueEnum as _;
+    query
+        .to_possible_value()
+        .map_or_else(String::new, |v| v.get_name().to_string())
+}
+
 /// Runs `uvms arm`.
 ///
 /// # Errors
@@ -79,8 +87,7 @@ pub fn run(args: &ArmArgs, _ctx: &Ctx) -> Result<Report> {
         || "built-in auv300_puma560".to_string(),
         |p| p.display().to_string(),
     );
-    let mut summary =
-        json!({ "model": model_name, "query": format!("{:?}", args.query).to_lowercase(), "q": args.q });
+    let mut summary = json!({ "model": model_name, "query": query_name(args.query), "q": args.q });
     let mut text = String::new();
     match args.query {
         ArmQuery::Fk => {
