@@ -23,8 +23,9 @@
 //! | `phase` | `approach`, `dwell`, `contact` or `retreat`, in this order (each may be absent) |
 //! | `fallback` | `1` if the point was projected onto the aligned reference mesh (a hole in the scan), else `0` |
 //!
-//! Consecutive quaternions have a non-negative dot product (no sign flips), so a reader can
-//! interpolate them directly. [`Trajectory::read_csv`] validates every field and reports the line
+//! Numbers are written in the shortest form that reads back to the same value, so a trajectory
+//! written and read again is the one written, bit for bit. Consecutive quaternions have a
+//! non-negative dot product (no sign flips), so a reader can interpolate them directly. [`Trajectory::read_csv`] validates every field and reports the line
 //! and column of the first bad one (exit code 2).
 //!
 //! # PLY export (`trajectory.ply`)
@@ -34,7 +35,7 @@
 
 use crate::error::{Error, Result};
 use crate::frames::{Pose, pose_from_rows, pose_to_rows};
-use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point3, Quaternion, SVector, Translation3, UnitQuaternion, Vector3};
 use std::io::Write;
 use std::path::Path;
 
@@ -227,7 +228,7 @@ impl Trajectory {
             let q = s.orientation.quaternion();
             writeln!(
                 w,
-                "{:.6},{:.9},{:.9},{:.9},{:.12},{:.12},{:.12},{:.12},{:.12},{:.12},{:.12},{:.4},{},{}",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 s.t,
                 p.x,
                 p.y,
@@ -414,12 +415,22 @@ fn parse_row(line: &str, at: &str) -> Result<Sample> {
     Ok(Sample {
         t,
         position,
-        orientation: UnitQuaternion::from_quaternion(q),
-        k: k.normalize(),
+        orientation: UnitQuaternion::new_unchecked(unit(q.coords).into()),
+        k: unit(k),
         force,
         phase,
         fallback,
     })
+}
+
+/// `v` scaled to unit length, unless it is unit to rounding already: a unit vector written
+/// and read back is the one written, bit for bit.
+fn unit<const N: usize>(v: SVector<f64, N>) -> SVector<f64, N> {
+    if (v.norm_squared() - 1.0).abs() <= 4.0 * f64::EPSILON {
+        v
+    } else {
+        v.normalize()
+    }
 }
 
 #[cfg(test)]
@@ -459,13 +470,33 @@ mod tests {
         let back = Trajectory::from_csv_str(&csv(&t), "t.csv").unwrap();
         assert_eq!(back.notes, t.notes);
         assert_eq!(back.samples.len(), t.samples.len());
+        // Bit for bit: the shortest round-trip numbers, unit vectors kept as written.
         for (a, b) in t.samples.iter().zip(&back.samples) {
-            assert!((a.t - b.t).abs() < 1e-9);
-            assert!((a.position - b.position).norm() < 1e-8);
-            assert!(a.orientation.angle_to(&b.orientation) < 1e-10);
-            assert!((a.k - b.k).norm() < 1e-10);
-            assert_eq!((a.force, a.phase, a.fallback), (b.force, b.phase, b.fallback));
+            assert_eq!((a.t, a.position, a.orientation), (b.t, b.position, b.orientation));
+            assert_eq!(
+                (a.k, a.force, a.phase, a.fallback),
+                (b.k, b.force, b.phase, b.fallback)
+            );
         }
+        // A quaternion and a k off unit length within the tolerance are scaled to unit length.
+        let mut lines: Vec<String> = csv(&t).lines().map(String::from).collect();
+        let row = lines.iter().position(|l| l.starts_with("t_s")).unwrap() + 1;
+        let mut f: Vec<f64> = lines[row]
+            .split(',')
+            .take(12)
+            .map(|v| v.parse().unwrap())
+            .collect();
+        for v in &mut f[4..11] {
+            *v *= 1.0002;
+        }
+        let rest: Vec<&str> = lines[row].split(',').skip(12).collect();
+        let nums: Vec<String> = f.iter().map(f64::to_string).collect();
+        lines[row] = format!("{},{}", nums.join(","), rest.join(","));
+        let back = Trajectory::from_csv_str(&lines.join("\n"), "t.csv").unwrap();
+        let b = &back.samples[0];
+        assert!((b.orientation.quaternion().norm() - 1.0).abs() < 1e-15);
+        assert!((b.k.norm() - 1.0).abs() < 1e-15);
+        assert!(b.orientation.angle_to(&t.samples[0].orientation) < 1e-12);
         assert!((t.contact_length() - 0.003).abs() < 1e-12);
         assert!((t.duration() - 0.2).abs() < 1e-12);
     }

@@ -1017,8 +1017,8 @@ fn a_force_beyond_the_thrusters_is_a_failed_run() {
 }
 
 /// The `config.toml` a `uvms run` writes configures `uvms sim` as it is (its `[sim]` and
-/// `[plan.frames]`): the run's trajectory simulated again gives the run's figures, but for the
-/// trajectory file's rounding (positions to the nanometre).
+/// `[plan.frames]`): the run's trajectory file simulated again gives the run's time series and
+/// figures bit for bit (the file holds every number as it was).
 #[test]
 fn a_runs_config_reruns_its_simulation() {
     let dir = tempfile::tempdir().unwrap();
@@ -1027,16 +1027,17 @@ fn a_runs_config_reruns_its_simulation() {
     let o = sim_bottle_trajectory(&out.join("config.toml"), &again, &["--json"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rerun: Value = serde_json::from_slice(&o.stdout).unwrap();
-    let sim = &summary["sim"];
-    for (key, tolerance) in [
-        ("force_settled_mean_n", 0.01),
-        ("force_overshoot_n", 0.05),
-        ("tool_deviation_max_m", 5e-5),
-        ("auv_deviation_max_m", 5e-5),
-        ("first_contact_s", 0.0015),
+    let read = |d: &Path| std::fs::read(d.join("timeseries.csv")).unwrap();
+    assert!(read(&out) == read(&again), "the time series differ");
+    for key in [
+        "force_settled_mean_n",
+        "force_overshoot_n",
+        "tool_deviation_max_m",
+        "auv_deviation_max_m",
+        "first_contact_s",
+        "moment_id_error_contact_max_nm",
     ] {
-        let (a, b) = (sim[key].as_f64().unwrap(), rerun[key].as_f64().unwrap());
-        assert!((a - b).abs() <= tolerance, "{key}: run {a}, rerun {b}");
+        assert_eq!(summary["sim"][key], rerun[key], "{key}");
     }
 }
 
