@@ -1028,7 +1028,7 @@ fn a_runs_config_reruns_its_simulation() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rerun: Value = serde_json::from_slice(&o.stdout).unwrap();
     let read = |d: &Path| std::fs::read(d.join("timeseries.csv")).unwrap();
-    assert!(read(&out) == read(&again), "the time series differ");
+    assert!(read(out) == read(&again), "the time series differ");
     for key in [
         "force_settled_mean_n",
         "force_overshoot_n",
