@@ -1027,6 +1027,9 @@ fn a_runs_config_reruns_its_simulation() {
     let o = sim_bottle_trajectory(&out.join("config.toml"), &again, &["--json"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rerun: Value = serde_json::from_slice(&o.stdout).unwrap();
+    // The pipeline leaves the initial guess unset: the resolved file states its default.
+    let resolved = std::fs::read_to_string(out.join("config.toml")).unwrap();
+    assert!(resolved.contains("\ninit = \"auto\"\n"), "{resolved}");
     let read = |d: &Path| std::fs::read(d.join("timeseries.csv")).unwrap();
     assert!(read(out) == read(&again), "the time series differ");
     for key in [

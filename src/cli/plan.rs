@@ -187,7 +187,7 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
 
 /// The input files and options of the planning stage (`uvms plan`'s arguments, or a
 /// pipeline's `[input]`).
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PlanInputs {
     /// The scan (PLY, scan frame `S`).
@@ -198,8 +198,20 @@ pub struct PlanInputs {
     pub ground_truth: Option<PathBuf>,
     /// Prior on the seabed normal in the scan frame.
     pub up: Option<[f64; 3]>,
-    /// Initial guess of the alignment: `auto`, `identity` or a JSON pose file.
+    /// Initial guess of the alignment: `auto` (the default), `identity` or a JSON pose file.
     pub init: String,
+}
+
+impl Default for PlanInputs {
+    fn default() -> Self {
+        PlanInputs {
+            scan: PathBuf::new(),
+            reference: None,
+            ground_truth: None,
+            up: None,
+            init: "auto".into(),
+        }
+    }
 }
 
 impl PlanInputs {
@@ -264,7 +276,7 @@ pub fn plan_stage(
             ),
         ));
     }
-    let init = init_mode(if args.init.is_empty() { "auto" } else { &args.init })?;
+    let init = init_mode(&args.init)?;
     let truth = match &args.ground_truth {
         Some(p) => Some(read_pose_file(p, "t_scan_reference")?),
         None => None,

@@ -33,7 +33,8 @@ pub struct SimArgs {
     /// The true surface the tool touches (PLY mesh); overrides `sim.surface`.
     #[arg(long)]
     pub surface: Option<PathBuf>,
-    /// Configuration (TOML) with `[sim]` and `[frames]` tables.
+    /// Configuration (TOML) with `[sim]` and `[frames]` tables, or a pipeline file (a run's
+    /// `config.toml`), whose `[sim]` and `[plan.frames]` are taken.
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Output folder.
