@@ -455,7 +455,8 @@ pub fn write_csv(rows: &[Row], w: &mut dyn Write) -> Result<()> {
         // Writing into a `String` cannot fail.
         let _ = write!(line, "{:.6e},{:.6e},{}", r.t, r.clock, r.phase.as_str());
         for x in &v {
-            let _ = write!(line, ",{x:.6e}");
+            // `+ 0.0` writes a negative zero as 0.
+            let _ = write!(line, ",{:.6e}", x + 0.0);
         }
         let _ = writeln!(line, ",{}", u8::from(r.contact));
         w.write_all(line.as_bytes()).map_err(io)?;
@@ -833,5 +834,17 @@ mod tests {
         let q = &panels("joints")[1].series;
         assert_eq!((q[0].label.as_str(), q[0].stroke), ("q4*", Stroke::Band));
         assert_eq!((q[0].y[2], q[1].y[2]), (rows[2].q_ref[3], rows[2].q[3]));
+    }
+
+    #[test]
+    fn the_time_series_writes_a_negative_zero_as_zero() {
+        let mut r = row(0.0);
+        r.e = Vector3::new(-0.0, -1e-9, 0.0);
+        let mut buf = Vec::new();
+        write_csv(&[r], &mut buf).unwrap();
+        let text = String::from_utf8(buf).unwrap();
+        let data = text.lines().last().unwrap();
+        assert!(!data.contains("-0.000000e0"), "{data}");
+        assert!(data.contains(",0.000000e0,-1.000000e-9,0.000000e0,"), "{data}");
     }
 }
