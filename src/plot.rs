@@ -73,7 +73,11 @@ pub struct Figure {
 /// sans-serif or monospace font.
 pub fn to_svg(fig: &Figure, width: u32, height: u32) -> String {
     let l = layout(fig, width, height);
-    let mut c = SvgCanvas { out: String::new() };
+    let mut c = SvgCanvas {
+        out: String::new(),
+        clips: 0,
+        last_clip: None,
+    };
     let _ = writeln!(
         c.out,
         "<?xml version=\"1.0\" encoding=\"UTF-8\" standalone=\"no\"?>\n\
@@ -492,8 +496,8 @@ trait Canvas {
     fn fill_rect(&mut self, r: Rect, c: Rgb);
     /// A frame of width `lw` inside `r`.
     fn stroke_rect(&mut self, r: Rect, lw: f64, c: Rgb);
-    /// One polyline per run; a one-point run is a dot.
-    fn polylines(&mut self, runs: &[Vec<(f64, f64)>], lw: f64, c: Rgb);
+    /// One polyline per run; a one-point run is a dot. Nothing is drawn outside `clip`.
+    fn polylines(&mut self, runs: &[Vec<(f64, f64)>], lw: f64, c: Rgb, clip: Rect);
     /// `s` centred vertically on `y_mid` (horizontally on `x` for vertical text).
     fn text(&mut self, x: f64, y_mid: f64, s: &str, t: Text);
 }
@@ -554,7 +558,7 @@ fn draw<C: Canvas>(fig: &Figure, l: &Layout, c: &mut C) {
         for stroke in [Stroke::Band, Stroke::Line] {
             for (k, s) in p.series.iter().enumerate().filter(|(_, s)| s.stroke == stroke) {
                 let (lw, color) = pen(s, k, l.lw);
-                c.polylines(&reduce(s, &l.x_axis, ya, r), lw, color);
+                c.polylines(&reduce(s, &l.x_axis, ya, r), lw, color, r);
             }
         }
         c.stroke_rect(r, f, BLACK);
@@ -743,6 +747,9 @@ fn reduce(s: &Series, xa: &Axis, ya: &Axis, r: Rect) -> Vec<Vec<(f64, f64)>> {
 
 struct SvgCanvas {
     out: String,
+    /// The clip paths defined so far (`c0`, `c1`, …), the last one's rectangle.
+    clips: usize,
+    last_clip: Option<Rect>,
 }
 
 /// `v` with at most one decimal, no "-0".
@@ -814,9 +821,17 @@ impl Canvas for SvgCanvas {
         self.out.push_str("\"/>\n");
     }
 
-    fn polylines(&mut self, runs: &[Vec<(f64, f64)>], lw: f64, c: Rgb) {
+    fn polylines(&mut self, runs: &[Vec<(f64, f64)>], lw: f64, c: Rgb, clip: Rect) {
+        if self.last_clip != Some(clip) {
+            let _ = write!(self.out, "<clipPath id=\"c{}\">", self.clips);
+            self.rect_attrs(clip);
+            self.out.push_str("/></clipPath>\n");
+            self.clips += 1;
+            self.last_clip = Some(clip);
+        }
         for run in runs {
-            self.out.push_str("<polyline fill=\"none\" stroke=\"");
+            let _ = write!(self.out, "<polyline clip-path=\"url(#c{})\"", self.clips - 1);
+            self.out.push_str(" fill=\"none\" stroke=\"");
             push_color(&mut self.out, c);
             self.out.push_str("\" stroke-width=\"");
             push_num(&mut self.out, lw);
@@ -993,7 +1008,7 @@ impl Canvas for Raster {
         );
     }
 
-    fn polylines(&mut self, runs: &[Vec<(f64, f64)>], lw: f64, c: Rgb) {
+    fn polylines(&mut self, runs: &[Vec<(f64, f64)>], lw: f64, c: Rgb, clip: Rect) {
         let mut bb: Bounds = (usize::MAX, usize::MAX, 0, 0);
         for run in runs {
             for pair in run.windows(2) {
@@ -1003,12 +1018,16 @@ impl Canvas for Raster {
         if bb.0 > bb.2 {
             return;
         }
+        let (cx, cy) = (
+            pixel_span(clip.x, clip.w, self.w),
+            pixel_span(clip.y, clip.h, self.h),
+        );
         for y in bb.1..=bb.3 {
             for x in bb.0..=bb.2 {
                 let i = y * self.w + x;
                 let a = self.mask[i];
-                if a > 0.0 {
-                    self.mask[i] = 0.0;
+                self.mask[i] = 0.0;
+                if a > 0.0 && (cx.0..cx.1).contains(&x) && (cy.0..cy.1).contains(&y) {
                     for (ch, &cc) in self.rgb[i * 3..i * 3 + 3].iter_mut().zip(&c) {
                         *ch = (f32::from(*ch) * (1.0 - a) + f32::from(cc) * a).round() as u8;
                     }
@@ -1572,7 +1591,10 @@ mod tests {
             assert!(column.contains(&tint), "{column:?}");
             assert_eq!(pixel(side * 3.0 * l.lw), WHITE);
         }
-        // The SVG draws the band first, four times as wide, in the tint.
+        // The band ends at the plot area's right edge: its round cap is clipped at the frame.
+        let beyond = ((py.floor() as usize) * 1200 + (r.x + r.w + 1.5) as usize) * 3;
+        assert_eq!(raster.rgb[beyond..beyond + 3], WHITE);
+        // The SVG draws the band first, four times as wide, in the tint, clipped alike.
         let svg = to_svg(&fig, 1200, 900);
         let polylines: Vec<&str> = svg.lines().filter(|s| s.starts_with("<polyline")).collect();
         let pen = |c: Rgb, w: f64| {
@@ -1583,6 +1605,19 @@ mod tests {
             s
         };
         assert_eq!(polylines.len(), 2);
+        let mut area = SvgCanvas {
+            out: String::new(),
+            clips: 0,
+            last_clip: None,
+        };
+        area.rect_attrs(*r);
+        let clip = format!("<clipPath id=\"c0\">{}/></clipPath>", area.out);
+        assert!(svg.contains(&clip), "{clip}");
+        assert!(
+            polylines
+                .iter()
+                .all(|p| p.starts_with("<polyline clip-path=\"url(#c0)\""))
+        );
         assert!(polylines[0].contains(&pen(tint, 4.0 * l.lw)), "{}", polylines[0]);
         assert!(polylines[1].contains(&pen(line, l.lw)), "{}", polylines[1]);
     }

@@ -423,10 +423,10 @@ fn parse_row(line: &str, at: &str) -> Result<Sample> {
     })
 }
 
-/// `v` scaled to unit length, unless it is unit to rounding already: a unit vector written
-/// and read back is the one written, bit for bit.
+/// `v` scaled to unit length, unless it is unit within 1e-12 already (a unit vector's rounding,
+/// some ε): a unit vector written and read back is the one written, bit for bit.
 fn unit<const N: usize>(v: SVector<f64, N>) -> SVector<f64, N> {
-    if (v.norm_squared() - 1.0).abs() <= 4.0 * f64::EPSILON {
+    if (v.norm_squared() - 1.0).abs() <= 1e-12 {
         v
     } else {
         v.normalize()

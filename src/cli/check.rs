@@ -52,7 +52,8 @@ pub struct CheckArgs {
 /// [`Error::Input`] for anything else, or a bad pose file.
 pub fn init_mode(spec: &str) -> Result<InitMode> {
     match spec {
-        "auto" => Ok(InitMode::Auto),
+        // Empty: a configuration written before the default was spelled out.
+        "auto" | "" => Ok(InitMode::Auto),
         "identity" => Ok(InitMode::Given(Pose::identity())),
         file => {
             let path = Path::new(file);
@@ -286,4 +287,18 @@ pub fn run(args: &CheckArgs, _ctx: &Ctx) -> Result<Report> {
         out,
         failure: None,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The `config.toml` of a run made before `[input] init` spelled out its default holds
+    /// `init = ""`: it still reruns, as `auto`.
+    #[test]
+    fn an_empty_initial_guess_is_auto() {
+        assert_eq!(init_mode("").unwrap(), InitMode::Auto);
+        assert_eq!(init_mode("identity").unwrap(), InitMode::Given(Pose::identity()));
+        assert_eq!(init_mode("no/such.json").unwrap_err().exit_code(), 2);
+    }
 }

@@ -517,25 +517,26 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
         ["M", " true", " identified"],
         |r| (&r.m_ez_true, &r.m_ez_id),
     );
-    let (t0, t1) = (
-        rows.first().map_or(0.0, |r| r.t),
-        rows.last().map_or(0.0, |r| r.t),
-    );
-    let limit = Series {
-        label: format!("+-{SEED_MOMENT_ERROR_NM} N m (seed)"),
-        x: vec![t0, t1, f64::NAN, t0, t1],
-        y: vec![
-            SEED_MOMENT_ERROR_NM,
-            SEED_MOMENT_ERROR_NM,
-            f64::NAN,
-            -SEED_MOMENT_ERROR_NM,
-            -SEED_MOMENT_ERROR_NM,
-        ],
-        color: Some(7),
-        stroke: Stroke::Line,
-    };
+    // The seed's limit holds in contact: drawn from the first contact to the last.
+    let touching = || rows.iter().filter(|r| r.contact).map(|r| r.t);
+    let limit = touching()
+        .next()
+        .zip(touching().next_back())
+        .map(|(t0, t1)| Series {
+            label: format!("seed: {SEED_MOMENT_ERROR_NM} N m in contact"),
+            x: vec![t0, t1, f64::NAN, t0, t1],
+            y: vec![
+                SEED_MOMENT_ERROR_NM,
+                SEED_MOMENT_ERROR_NM,
+                f64::NAN,
+                -SEED_MOMENT_ERROR_NM,
+                -SEED_MOMENT_ERROR_NM,
+            ],
+            color: Some(7),
+            stroke: Stroke::Line,
+        });
     moments.push(Panel {
-        title: "Identification error of the joint moments, identified - true".into(),
+        title: "Joint moments' identification error, identified - true (logged samples)".into(),
         y_label: "N m".into(),
         series: (0..6)
             .map(|j| {
@@ -544,7 +545,7 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
                 });
                 styled(e, j, Stroke::Line)
             })
-            .chain([limit])
+            .chain(limit)
             .collect(),
     });
     let comps = ["x", "y", "z"];
@@ -575,7 +576,7 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
             .collect(),
         },
         Panel {
-            title: "Identification error of the force along k, identified - true".into(),
+            title: "Force's identification error along k, identified - true (logged samples)".into(),
             y_label: "N".into(),
             series: vec![series(rows, "Fk", |r| r.f_k_id - r.f_k_true)],
         },
@@ -787,7 +788,9 @@ mod tests {
 
     #[test]
     fn figures_draw_each_reference_as_a_band_under_its_line_and_plot_the_errors() {
-        let rows: Vec<Row> = (0..5).map(|k| row(f64::from(k) * 0.1)).collect();
+        let mut rows: Vec<Row> = (0..5).map(|k| row(f64::from(k) * 0.1)).collect();
+        rows[0].contact = false;
+        rows[4].contact = false;
         let figs = figures(&rows, &Scenario::default());
         let panels = |name: &str| &figs.iter().find(|(n, _)| *n == name).unwrap().1.panels;
         // Every band (a true value or a reference) is followed by the line of its colour.
@@ -824,7 +827,14 @@ mod tests {
         let limit = &m[2].series[6];
         assert_eq!(limit.y[..2], [SEED_MOMENT_ERROR_NM; 2]);
         assert_eq!(limit.y[3..], [-SEED_MOMENT_ERROR_NM; 2]);
-        assert_eq!((limit.x[0], limit.x[1]), (0.0, 0.4));
+        // Over the contact only: from the first row in contact to the last.
+        assert_eq!(
+            (limit.x[0], limit.x[1], limit.x[3], limit.x[4]),
+            (rows[1].t, rows[3].t, rows[1].t, rows[3].t)
+        );
+        rows.iter_mut().for_each(|r| r.contact = false);
+        let untouched = figures(&rows, &Scenario::default());
+        assert_eq!(untouched[0].1.panels[2].series.len(), 6, "no contact, no limit");
         // Force: the error along k is identified minus true.
         let f = panels("force");
         for (y, r) in f[2].series[0].y.iter().zip(&rows) {
