@@ -73,11 +73,7 @@ pub struct Figure {
 /// sans-serif or monospace font.
 pub fn to_svg(fig: &Figure, width: u32, height: u32) -> String {
     let l = layout(fig, width, height);
-    let mut c = SvgCanvas {
-        out: String::new(),
-        clips: 0,
-        last_clip: None,
-    };
+    let mut c = SvgCanvas::default();
     let _ = writeln!(
         c.out,
         "<?xml version=\"1.0\" encoding=\"UTF-8\" standalone=\"no\"?>\n\
@@ -745,6 +741,7 @@ fn reduce(s: &Series, xa: &Axis, ya: &Axis, r: Rect) -> Vec<Vec<(f64, f64)>> {
 // SVG
 // ---------------------------------------------------------------------------------------------
 
+#[derive(Default)]
 struct SvgCanvas {
     out: String,
     /// The clip paths defined so far (`c0`, `c1`, …), the last one's rectangle.
@@ -1605,11 +1602,7 @@ mod tests {
             s
         };
         assert_eq!(polylines.len(), 2);
-        let mut area = SvgCanvas {
-            out: String::new(),
-            clips: 0,
-            last_clip: None,
-        };
+        let mut area = SvgCanvas::default();
         area.rect_attrs(*r);
         let clip = format!("<clipPath id=\"c0\">{}/></clipPath>", area.out);
         assert!(svg.contains(&clip), "{clip}");

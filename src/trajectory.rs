@@ -25,8 +25,9 @@
 //!
 //! Numbers are written in the shortest form that reads back to the same value, so a trajectory
 //! written and read again is the one written, bit for bit. Consecutive quaternions have a
-//! non-negative dot product (no sign flips), so a reader can interpolate them directly. [`Trajectory::read_csv`] validates every field and reports the line
-//! and column of the first bad one (exit code 2).
+//! non-negative dot product (no sign flips), so a reader can interpolate them directly.
+//! [`Trajectory::read_csv`] validates every field and reports the line and column of the first
+//! bad one (exit code 2).
 //!
 //! # PLY export (`trajectory.ply`)
 //! A line set to view over the scan in CloudCompare, MeshLab or Open3D: the path (white in
@@ -481,17 +482,15 @@ mod tests {
         // A quaternion and a k off unit length within the tolerance are scaled to unit length.
         let mut lines: Vec<String> = csv(&t).lines().map(String::from).collect();
         let row = lines.iter().position(|l| l.starts_with("t_s")).unwrap() + 1;
-        let mut f: Vec<f64> = lines[row]
+        let fields: Vec<String> = lines[row]
             .split(',')
-            .take(12)
-            .map(|v| v.parse().unwrap())
+            .enumerate()
+            .map(|(c, v)| match c {
+                4..=10 => (v.parse::<f64>().unwrap() * 1.0002).to_string(),
+                _ => v.to_string(),
+            })
             .collect();
-        for v in &mut f[4..11] {
-            *v *= 1.0002;
-        }
-        let rest: Vec<&str> = lines[row].split(',').skip(12).collect();
-        let nums: Vec<String> = f.iter().map(f64::to_string).collect();
-        lines[row] = format!("{},{}", nums.join(","), rest.join(","));
+        lines[row] = fields.join(",");
         let back = Trajectory::from_csv_str(&lines.join("\n"), "t.csv").unwrap();
         let b = &back.samples[0];
         assert!((b.orientation.quaternion().norm() - 1.0).abs() < 1e-15);

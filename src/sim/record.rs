@@ -538,12 +538,12 @@ pub fn figures(rows: &[Row], scenario: &Scenario) -> Vec<(&'static str, Figure)>
     moments.push(Panel {
         title: "Joint moments' identification error, identified - true (logged samples)".into(),
         y_label: "N m".into(),
+        // Joint `j` is the panel's `j`-th series: the joint's colour.
         series: (0..6)
             .map(|j| {
-                let e = series(rows, &format!("M{}", j + 1), move |r| {
+                series(rows, &format!("M{}", j + 1), move |r| {
                     r.m_ez_id[j] - r.m_ez_true[j]
-                });
-                styled(e, j, Stroke::Line)
+                })
             })
             .chain(limit)
             .collect(),
