@@ -658,23 +658,22 @@ impl UvmsModel {
         for (i, l) in a.links.iter().enumerate() {
             let field = |f: &str| format!("arm.links[{}].{f}", i + 1);
             finite(&field("dh"), &[l.dh.theta_offset, l.dh.d, l.dh.a, l.dh.alpha])?;
-            finite(
-                &field("drive"),
-                &[
-                    l.mass,
-                    l.motor_inertia,
-                    l.gear_ratio,
-                    l.viscous_friction,
-                    l.torque_limit,
-                ],
-            )?;
+            let scalars = [
+                ("mass", l.mass),
+                ("motor_inertia", l.motor_inertia),
+                ("gear_ratio", l.gear_ratio),
+                ("viscous_friction", l.viscous_friction),
+                ("torque_limit", l.torque_limit),
+            ];
+            for (name, v) in scalars {
+                finite(&field(name), &[v])?;
+            }
             finite(&field("coulomb_friction"), &l.coulomb_friction)?;
             finite(&field("center_of_mass"), &l.center_of_mass)?;
-            if l.mass < 0.0 || l.motor_inertia < 0.0 || l.viscous_friction < 0.0 {
-                return Err(bad(
-                    &field("mass"),
-                    "mass, motor_inertia and viscous_friction must be >= 0",
-                ));
+            for (name, v) in [scalars[0], scalars[1], scalars[3]] {
+                if v < 0.0 {
+                    return Err(bad(&field(name), "must be >= 0"));
+                }
             }
             if l.coulomb_friction[0] < 0.0 || l.coulomb_friction[1] > 0.0 {
                 return Err(bad(
@@ -826,6 +825,14 @@ mod tests {
         m.arm.links[3].joint_limits = [1.0, -1.0];
         let msg = m.validate("m.toml").unwrap_err().to_string();
         assert!(msg.contains("arm.links[4].joint_limits"), "{msg}");
+        // Each drive value named by its own key (all three were named `mass`).
+        let mut m = UvmsModel::default();
+        m.arm.links[1].motor_inertia = -2e-4;
+        let msg = m.validate("m.toml").unwrap_err().to_string();
+        assert!(
+            msg.contains("m.toml: arm.links[2].motor_inertia: must be >= 0"),
+            "{msg}"
+        );
         let mut m = UvmsModel::default();
         m.arm.mount_rotation[0][0] = 2.0;
         assert!(

@@ -7,7 +7,10 @@
 //! products it may write when it creates the folder, and one whose product is one of the run's
 //! inputs is refused then, before anything is written: inputs are never overwritten, and a run
 //! is not refused halfway. A run interrupted by a signal removes the temporary files it is
-//! writing before it exits ([`remove_unfinished`]).
+//! writing before it exits ([`remove_unfinished`]). A run that wrote anything removes, as it
+//! ends, the products it declared but did not write, left in the folder by an earlier run: a
+//! failed rerun into the same `--out` does not leave the earlier run's summary and time series
+//! beside its own products.
 
 use crate::error::{Error, Result};
 use serde::Serialize;
@@ -93,10 +96,18 @@ pub struct OutDir {
     /// with them still empty (bad input found after the folder was made), so that a run that
     /// wrote nothing leaves nothing.
     created: Vec<PathBuf>,
+    /// The products written so far.
+    written: Mutex<Vec<&'static str>>,
 }
 
 impl Drop for OutDir {
     fn drop(&mut self) {
+        let written = self.written.get_mut().unwrap_or_else(PoisonError::into_inner);
+        if !written.is_empty() {
+            for name in self.products.iter().filter(|p| !written.contains(p)) {
+                let _ = fs::remove_file(self.dir.join(name));
+            }
+        }
         for dir in &self.created {
             // Stops at the first folder that holds anything.
             if fs::remove_dir(dir).is_err() {
@@ -122,7 +133,7 @@ impl OutDir {
     ///
     /// # Errors
     /// [`Error::Input`] if an input would be overwritten, if `dir` exists and is not a folder,
-    /// or if it cannot be created or written in.
+    /// if a product's path is a folder, or if `dir` cannot be created or written in.
     pub fn create(dir: &Path, inputs: &[&Path], products: &[&'static str]) -> Result<Self> {
         if dir.exists() && !dir.is_dir() {
             return Err(Error::input(dir.display(), "--out exists and is not a folder"));
@@ -130,6 +141,12 @@ impl OutDir {
         let inputs: Vec<PathBuf> = inputs.iter().filter_map(|p| fs::canonicalize(p).ok()).collect();
         let products: Vec<&'static str> = products.iter().chain(&ALWAYS).copied().collect();
         for name in &products {
+            if dir.join(name).is_dir() {
+                return Err(Error::input(
+                    dir.join(name).display(),
+                    format!("is a folder, where this command writes its {name}: choose another --out"),
+                ));
+            }
             if let Ok(canon) = fs::canonicalize(dir.join(name))
                 && let Some(input) = inputs.iter().find(|i| **i == canon)
             {
@@ -150,6 +167,7 @@ impl OutDir {
             dir: dir.to_path_buf(),
             products,
             created: Vec::new(),
+            written: Mutex::new(Vec::new()),
         };
         // Level by level, each folder listed only if this run made it (not one another run
         // made meanwhile, nor `new/..`, which is there once `new` is).
@@ -192,12 +210,12 @@ impl OutDir {
     /// own failure (a stage `write …`) named by the file.
     pub fn write_with(&self, name: &str, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<PathBuf> {
         let target = self.file(name);
-        if !self.products.contains(&name) {
+        let Some(&product) = self.products.iter().find(|p| **p == name) else {
             return Err(Error::failed(
                 format!("write {}", target.display()),
                 "not a declared product of this command (the inputs were not checked against it)",
             ));
-        }
+        };
         let stage = format!("write {}", target.display());
         // Another run into the same new folder that stopped before writing anything removes
         // it as it ends: made again.
@@ -218,6 +236,10 @@ impl OutDir {
         let file = w.into_inner().map_err(|e| Error::failed(&stage, e.error()))?;
         file.sync_all().map_err(|e| Error::failed(&stage, e))?;
         tmp.rename(&target).map_err(|e| Error::failed(&stage, e))?;
+        let mut written = self.written.lock().unwrap_or_else(PoisonError::into_inner);
+        if !written.contains(&product) {
+            written.push(product);
+        }
         Ok(target)
     }
 
@@ -344,6 +366,40 @@ mod tests {
         assert_eq!(out.write_bytes("a.txt", b"new").unwrap_err().exit_code(), 1);
         assert_eq!(fs::read(&squatter).unwrap(), b"someone's");
         assert!(!dir.path().join("a.txt").exists());
+    }
+
+    /// A rerun into the folder of an earlier run: what it does not write again is removed as it
+    /// ends, once it has written anything (a run refused before writing leaves the folder as
+    /// it was); files that are not its products stay. A folder with a product's name is
+    /// refused before anything is written.
+    #[test]
+    fn a_run_that_wrote_removes_the_earlier_runs_products_it_did_not_write() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = |name: &str| dir.path().join(name);
+        for name in ["a.txt", "b.txt", "summary.json", "notes.txt"] {
+            fs::write(path(name), b"earlier").unwrap();
+        }
+        let products = ["a.txt", "b.txt"];
+        drop(OutDir::create(dir.path(), &[], &products).unwrap());
+        assert!(
+            ["a.txt", "b.txt", "summary.json"]
+                .iter()
+                .all(|n| path(n).exists())
+        );
+        let out = OutDir::create(dir.path(), &[], &products).unwrap();
+        out.write_bytes("a.txt", b"now").unwrap();
+        drop(out);
+        assert_eq!(fs::read(path("a.txt")).unwrap(), b"now");
+        assert!(!path("b.txt").exists() && !path("summary.json").exists());
+        assert!(path("notes.txt").exists());
+        fs::create_dir(path("b.txt")).unwrap();
+        let err = OutDir::create(dir.path(), &[], &products).unwrap_err();
+        assert_eq!(err.exit_code(), 2);
+        assert!(
+            err.to_string()
+                .contains("b.txt: is a folder, where this command writes its b.txt"),
+            "{err}"
+        );
     }
 
     #[test]

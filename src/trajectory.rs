@@ -413,11 +413,24 @@ fn parse_row(line: &str, at: &str) -> Result<Sample> {
         "1" => true,
         other => return Err(Error::input(col(13), format!("'{other}' is not 0 or 1"))),
     };
+    let orientation = UnitQuaternion::new_unchecked(unit(q.coords).into());
+    let k = unit(k);
+    // `k = z_G`: the force is pressed along the tool's own axis.
+    let z_g = orientation * Vector3::z();
+    if (k - z_g).norm() > UNIT_TOLERANCE {
+        return Err(Error::input(
+            col(8),
+            format!(
+                "k is {:.3}° from the tool's z axis (the quaternion's z_G), where it must be z_G",
+                k.angle(&z_g).to_degrees()
+            ),
+        ));
+    }
     Ok(Sample {
         t,
         position,
-        orientation: UnitQuaternion::new_unchecked(unit(q.coords).into()),
-        k: unit(k),
+        orientation,
+        k,
         force,
         phase,
         fallback,
@@ -502,11 +515,18 @@ mod tests {
 
     /// Replaces field `col` (0-based) of data row `row` (0-based) and returns the error message.
     fn corrupt(row: usize, col: usize, value: &str) -> String {
+        corrupt_fields(row, &[(col, value.to_string())])
+    }
+
+    /// As [`corrupt`], several fields of the row.
+    fn corrupt_fields(row: usize, values: &[(usize, String)]) -> String {
         let text = csv(&demo());
         let mut lines: Vec<String> = text.lines().map(String::from).collect();
         let first = lines.iter().position(|l| l.starts_with("t_s")).unwrap() + 1;
         let mut f: Vec<String> = lines[first + row].split(',').map(String::from).collect();
-        f[col] = value.to_string();
+        for (col, value) in values {
+            f[*col] = value.clone();
+        }
         lines[first + row] = f.join(",");
         let err = Trajectory::from_csv_str(&lines.join("\n"), "t.csv").unwrap_err();
         assert_eq!(err.exit_code(), 2);
@@ -524,6 +544,15 @@ mod tests {
         assert!(corrupt(0, 0, "-1").contains("negative"));
         assert!(corrupt(2, 4, "0.5").contains("column 5 (qw)"));
         assert!(corrupt(2, 8, "2").contains("column 9 (kx)"));
+        // A unit k 0.01 rad off the tool's axis.
+        let k = demo().samples[2].k;
+        let tilted = UnitQuaternion::from_scaled_axis(k.cross(&Vector3::x()).normalize() * 0.01) * k;
+        let fields: Vec<(usize, String)> = (0..3).map(|i| (8 + i, tilted[i].to_string())).collect();
+        let msg = corrupt_fields(2, &fields);
+        assert!(
+            msg.contains("column 9 (kx): k is 0.573° from the tool's z axis"),
+            "{msg}"
+        );
         assert!(corrupt(2, 11, "-3").contains("column 12 (force_n)"));
         assert!(corrupt(2, 11, "1e300").contains("column 12 (force_n): 1e300 is beyond"));
         assert!(corrupt(3, 12, "hover").contains("column 13 (phase)"));

@@ -120,6 +120,27 @@ fn sample_the_sediment_without_a_reference() {
         out.to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    // ...and so is a ground truth or an initial guess, which were ignored.
+    let truth = data("scans/bottle/truth.json");
+    for option in ["--ground-truth", "--init"] {
+        let o = run(&[
+            "plan",
+            scan.to_str().unwrap(),
+            "--pattern",
+            "line",
+            option,
+            truth.to_str().unwrap(),
+            "--out",
+            dir.path().join("o2").to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains(&format!("{option}: needs --reference")),
+            "{}",
+            stderr(&o)
+        );
+        assert!(!dir.path().join("o2").exists());
+    }
 }
 
 #[test]

@@ -631,6 +631,12 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
             "[sim.sensors]\nwater_track_rate_hz = 1e8",
             "variant.toml: sim.sensors.water_track_rate_hz: must not exceed sim.control_rate_hz",
         ),
+        // Values found wrong only as their stage runs (they were named without the file and
+        // table, or by another key).
+        (
+            "[perception.cluster]\ntolerance_m = 1e-12",
+            "variant.toml: perception.cluster.tolerance_m: too small for the extent of the cloud",
+        ),
         // A controllers' model that is none (it was named as the model file's key).
         (
             "[sim.controller_model]\nlink_mass_scale = 1e8",
@@ -650,7 +656,10 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     let p = variant(dir.path(), "[plan.tool]\nmax_rate_deg_s = 1e-9");
     let o7 = dir.path().join("o7");
     let err = refused(&["run", p.to_str().unwrap(), "--out", o7.to_str().unwrap()], 2);
-    assert!(err.contains("variant.toml: sim: the run could take"), "{err}");
+    assert!(
+        err.contains("variant.toml: trajectory: the run could take"),
+        "{err}"
+    );
     assert!(!o7.exists(), "files left");
     // A fine control rate times many plant substeps is as long a run (4·10⁹ plant steps, some
     // four hours of computing): refused alike.
@@ -661,7 +670,7 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     let p = pipeline_with("bottle_cleaning", dir.path(), "fine.toml", &fine);
     let err = refused(&["run", p.to_str().unwrap(), "--out", o7.to_str().unwrap()], 2);
     assert!(
-        err.contains("fine.toml: sim: the run could take 4.445e6 control periods")
+        err.contains("fine.toml: trajectory: the run could take 4.445e6 control periods")
             && err.ends_with("of sim.plant_substeps 1000 plant steps each, 4.445e9 steps: at most 1e8\n"),
         "{err}"
     );
@@ -993,6 +1002,29 @@ fn a_trajectory_planned_with_other_frames_is_refused() {
     assert!(!dir.path().join("o").exists());
 }
 
+/// A trajectory so long the run would take 10¹² control periods is refused naming the
+/// trajectory's file (it was named as the configuration's `sim`), before anything is written.
+#[test]
+fn a_trajectory_too_long_to_simulate_is_refused_naming_its_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(bottle_run().0.join("trajectory.csv")).unwrap();
+    let last = text.lines().last().unwrap();
+    let (_, rest) = last.split_once(',').unwrap();
+    let long = dir.path().join("long.csv");
+    std::fs::write(&long, text.replace(last, &format!("1e9,{rest}"))).unwrap();
+    let out = dir.path().join("o");
+    let o = sim_on(&long, &bottle_run().0.join("config.toml"), &out, &["--quiet"]);
+    let err = refused_output(&o, 2);
+    assert!(
+        err.starts_with(&format!(
+            "error: {}: the run could take 1.000e12 control periods",
+            long.display()
+        )),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
 /// A force no hover point's thrusters can hold is a failed run that says so, before the
 /// simulation (5 kN against thrusters of a few hundred newtons).
 #[test]
@@ -1002,18 +1034,22 @@ fn a_force_beyond_the_thrusters_is_a_failed_run() {
     let text = std::fs::read_to_string(&p).unwrap();
     assert!(text.contains("force_n = 60.0"));
     std::fs::write(&p, text.replacen("force_n = 60.0", "force_n = 5000.0", 1)).unwrap();
-    let o = run(&[
-        "run",
-        p.to_str().unwrap(),
-        "--out",
-        dir.path().join("o").to_str().unwrap(),
-    ]);
+    // Into the folder of an earlier run: its summary and time series do not stay beside this
+    // run's plan as if it had succeeded.
+    let out = dir.path().join("o");
+    std::fs::create_dir(&out).unwrap();
+    for name in ["summary.json", "timeseries.csv", "notes.txt"] {
+        std::fs::write(out.join(name), "earlier").unwrap();
+    }
+    let o = run(&["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
         err.contains("hover: the thrusters cannot hold the contact") && err.contains("up to 5000.0 N"),
         "{err}"
     );
+    assert!(out.join("trajectory.csv").exists() && out.join("notes.txt").exists());
+    assert!(!out.join("summary.json").exists() && !out.join("timeseries.csv").exists());
 }
 
 /// The `config.toml` a `uvms run` writes configures `uvms sim` as it is (its `[sim]` and

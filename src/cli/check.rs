@@ -179,7 +179,7 @@ pub fn check_text(r: &CheckResult) -> String {
         row(
             "axis error",
             format!(
-                "{:.4}° (the model's axis of revolution: the rotation error without the turn about it)",
+                "{:.4}° (the model's distinct principal axis, a body of revolution's own axis: the rotation error without the turn about it)",
                 e.axis_error_deg
             ),
         );
@@ -187,6 +187,7 @@ pub fn check_text(r: &CheckResult) -> String {
             "translation error",
             format!("{:.3} mm", 1e3 * e.translation_error_m),
         );
+        row("ADD", format!("{:.3} mm", 1e3 * e.add_m));
         row("ADD-S", format!("{:.3} mm", 1e3 * e.add_s_m));
     }
     row("time", format!("{:.3} s", r.timings.total()));
@@ -268,7 +269,8 @@ pub fn run(args: &CheckArgs, _ctx: &Ctx) -> Result<Report> {
         whole_scan: args.whole_scan,
         truth,
     };
-    let result = check(&scan, &model, &opts, &cfg)?;
+    let result = check(&scan, &model, &opts, &cfg)
+        .map_err(|e| super::named_in(e, args.config.as_deref(), &[("", &super::PERCEPTION_TABLES)]))?;
     let mut summary = check_summary(&result);
     summary["scan"] = json!(args.scan.display().to_string());
     summary["reference"] = json!(args.reference.display().to_string());

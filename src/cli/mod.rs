@@ -125,15 +125,51 @@ pub(crate) fn config_origin(config: Option<&std::path::Path>) -> String {
     config.map_or_else(|| "configuration".into(), |p| p.display().to_string())
 }
 
-/// A stage's error about a value of the configuration file `file` (a key in `table`, starting
-/// with `key`: found only once the stage ran) named as the file's other errors are, by the
-/// file and the whole key. Other errors, and any without a file, are unchanged.
-pub(crate) fn named_in(e: Error, file: Option<&std::path::Path>, table: &str, key: &str) -> Error {
-    match (file, &e) {
-        (Some(file), Error::Input { what, .. }) if what.starts_with(key) => e.in_table(file.display(), table),
+/// The sub-tables of the perception's configuration (`[perception]` in a pipeline) and of the
+/// plan's (`[plan]`), whose keys a stage may name in an error it finds only as it runs.
+pub(crate) const PERCEPTION_TABLES: [&str; 9] = [
+    "view.",
+    "clean.",
+    "seabed.",
+    "cluster.",
+    "select.",
+    "normals.",
+    "register.",
+    "surface.",
+    "accuracy.",
+];
+pub(crate) const PLAN_TABLES: [&str; 8] = [
+    "ring.",
+    "raster.",
+    "line.",
+    "polyline.",
+    "projection.",
+    "tool.",
+    "timing.",
+    "frames.",
+];
+
+/// A stage's error about a value of the configuration file `file` (found only once the stage
+/// ran) named as the file's other errors are, by the file and the whole key: the first of
+/// `tables` (a table of the file, and the keys it holds, by their start) holding the key the
+/// error names. Other errors, and any without a file, are unchanged.
+pub(crate) fn named_in(e: Error, file: Option<&std::path::Path>, tables: &[(&str, &[&str])]) -> Error {
+    let table = match (&e, file) {
+        (Error::Input { what, .. }, Some(_)) => tables
+            .iter()
+            .find(|(_, keys)| keys.iter().any(|k| what.starts_with(k)))
+            .map(|(table, _)| *table),
+        _ => None,
+    };
+    match (table, file) {
+        (Some(table), Some(file)) => e.in_table(file.display(), table),
         _ => e,
     }
 }
+
+/// The tables of a pipeline file, or of `uvms plan --config`'s file, for [`named_in`].
+pub(crate) const PIPELINE_TABLES: [(&str, &[&str]); 2] =
+    [("perception.", &PERCEPTION_TABLES), ("plan.", &PLAN_TABLES)];
 
 /// Runs a parsed command line: the command, then its summary and text.
 ///

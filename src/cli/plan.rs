@@ -19,6 +19,7 @@ use crate::output::OutDir;
 use crate::perception::{CheckOptions, PerceptionConfig, check, clean};
 use crate::plan::patterns::PatternKind;
 use crate::plan::{ObjectAxes, ObjectInput, PlanConfig, PlanInput, PlanReport, plan};
+use crate::register::InitMode;
 use crate::segment::seabed::find_seabed;
 use crate::trajectory::Trajectory;
 use crate::triangulate::triangulate_view;
@@ -166,7 +167,8 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
     files.extend(args.config.as_deref());
     files.extend(cfg.plan.polyline.file.as_deref());
     let out = OutDir::create(&args.out, &files, &products())?;
-    let mut stage = plan_stage(&inputs, &cfg, &out, &|_| Ok(()))?;
+    let mut stage = plan_stage(&inputs, &cfg, &out, &|_| Ok(()))
+        .map_err(|e| super::named_in(e, args.config.as_deref(), &super::PIPELINE_TABLES))?;
     out.write_toml("config.toml", &cfg)?;
     let _ = writeln!(
         stage.text,
@@ -277,6 +279,21 @@ pub fn plan_stage(
         ));
     }
     let init = init_mode(&args.init)?;
+    // Without a reference there is no alignment to start or to check: the options would be
+    // silently ignored.
+    if args.reference.is_none() {
+        let given = if args.ground_truth.is_some() {
+            Some("--ground-truth")
+        } else {
+            (init != InitMode::Auto).then_some("--init")
+        };
+        if let Some(option) = given {
+            return Err(Error::input(
+                option,
+                "needs --reference: without a reference model there is no alignment to start or check",
+            ));
+        }
+    }
     let truth = match &args.ground_truth {
         Some(p) => Some(read_pose_file(p, "t_scan_reference")?),
         None => None,

@@ -227,7 +227,8 @@ pub fn run(args: &SegmentArgs, _ctx: &Ctx) -> Result<Report> {
         args.up.as_ref(),
         reference.as_ref().map(|r| &r.shape.spans),
         &cfg,
-    )?;
+    )
+    .map_err(|e| super::named_in(e, args.config.as_deref(), &[("", &super::PERCEPTION_TABLES)]))?;
     let (scene, clusters) = coloured(&seg);
     out.write_with("segmented.ply", |w| write_cloud(w, &scene))?;
     out.write_with("clusters.ply", |w| write_cloud(w, &clusters))?;

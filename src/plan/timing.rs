@@ -12,7 +12,7 @@
 //! seed's advice for critical operations); after the last point it retreats along `-k`. No force
 //! is demanded during the approach and the retreat.
 
-use super::project::{MAX_COUNT, PathPoint, bounded_count};
+use super::project::{MAX_COUNT, PathPoint};
 use crate::config::{non_negative, positive, shown};
 use crate::error::{Error, Result};
 use crate::trajectory::{Phase, Sample};
@@ -86,22 +86,53 @@ impl TimingConfig {
             ));
         }
         positive("timing.retreat_speed_m_s", self.retreat_speed_m_s)?;
-        let period = self.sample_period_s;
-        bounded_count(
-            "timing.standoff_m",
-            self.standoff_m,
-            self.approach_speed_m_s * period,
-        )?;
-        bounded_count(
-            "timing.standoff_m",
-            self.standoff_m,
-            self.retreat_speed_m_s * period,
-        )?;
-        bounded_count("timing.dwell_s", self.dwell_s, period)?;
+        // Each phase's samples, named by what sets its length; the sample period is the
+        // other factor of each count.
+        let phases = [
+            (
+                "the approach",
+                format!(
+                    "timing.standoff_m {} m at timing.approach_speed_m_s {} m/s",
+                    shown(self.standoff_m),
+                    shown(self.approach_speed_m_s)
+                ),
+                self.standoff_m / self.approach_speed_m_s,
+            ),
+            (
+                "the retreat",
+                format!(
+                    "timing.standoff_m {} m at timing.retreat_speed_m_s {} m/s",
+                    shown(self.standoff_m),
+                    shown(self.retreat_speed_m_s)
+                ),
+                self.standoff_m / self.retreat_speed_m_s,
+            ),
+            (
+                "the dwell",
+                format!("timing.dwell_s {}", shown(self.dwell_s)),
+                self.dwell_s,
+            ),
+        ];
+        for (phase, set_by, seconds) in phases {
+            let samples = seconds / self.sample_period_s;
+            if samples.is_nan() || samples > MAX_COUNT {
+                return Err(Error::input(
+                    "timing.sample_period_s",
+                    format!(
+                        "{phase} ({set_by}) would need {samples:.3e} samples {} s apart, at most {MAX_COUNT:.0e}",
+                        shown(self.sample_period_s)
+                    ),
+                ));
+            }
+        }
         if self.spacing() < 1e-6 {
             return Err(Error::input(
                 "timing.sample_period_s",
-                "speed × sample period must be at least 1 µm",
+                format!(
+                    "times timing.speed_m_s {} m/s places the samples {:.3e} m apart: at least 1 µm",
+                    shown(self.speed_m_s),
+                    self.spacing()
+                ),
             ));
         }
         Ok(())
@@ -396,6 +427,36 @@ fn time_along(s: f64, length: f64, speed: f64, accel_s: f64) -> f64 {
 mod tests {
     use super::*;
     use nalgebra::{Point3, Vector3};
+
+    /// A count of samples too large names the sample period, with the values that set it (a
+    /// microscopic period was blamed on `standoff_m`, a microscopic speed on the period alone).
+    #[test]
+    fn too_many_samples_name_the_period_and_what_sets_the_phase() {
+        let refused = |set: fn(&mut TimingConfig)| {
+            let mut cfg = TimingConfig::default();
+            set(&mut cfg);
+            let err = cfg.validate().unwrap_err();
+            assert_eq!(err.exit_code(), 2);
+            err.to_string()
+        };
+        let msg = refused(|c| c.sample_period_s = 1e-9);
+        assert!(
+            msg.starts_with(
+                "timing.sample_period_s: the approach (timing.standoff_m 0.05 m at timing.approach_speed_m_s"
+            ),
+            "{msg}"
+        );
+        let msg = refused(|c| c.dwell_s = 1e12);
+        assert!(
+            msg.contains("the dwell (timing.dwell_s 1e12) would need 2.000e13 samples 0.05 s apart"),
+            "{msg}"
+        );
+        let msg = refused(|c| c.speed_m_s = 1e-9);
+        assert!(
+            msg.starts_with("timing.sample_period_s: times timing.speed_m_s 1e-9 m/s places the samples"),
+            "{msg}"
+        );
+    }
 
     fn pp(x: f64, y: f64) -> PathPoint {
         PathPoint {

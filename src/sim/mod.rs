@@ -1027,7 +1027,7 @@ pub fn check_trajectory(trajectory: &Trajectory, cfg: &SimConfig) -> Result<(f64
     let steps = periods * cfg.plant_substeps as f64;
     if steps.is_nan() || steps > MAX_STEPS {
         return Err(Error::input(
-            "sim",
+            "trajectory",
             format!(
                 "the run could take {periods:.3e} control periods (trajectory {:.3e} s, sim.tail_s {:.3e} s, sim.dwell.max_wait_s {:.3e} s at sim.control_rate_hz {}) of sim.plant_substeps {} plant steps each, {steps:.3e} steps: at most {MAX_STEPS:.0e}",
                 t_end - t0,
