@@ -83,6 +83,7 @@ pub fn check_summary(r: &CheckResult) -> serde_json::Value {
         "scan_fitness": reg.scan_fitness,
         "inlier_rmse_m": reg.inlier_rmse_m,
         "evaluation_distance_m": reg.evaluation_distance_m,
+        "scan_noise_m": reg.scan_noise_m,
         "accuracy_rms_m": r.accuracy.rms_m,
         "accuracy_max_m": r.accuracy.max_m,
         "accuracy_mean_signed_m": r.accuracy.mean_signed_m,
@@ -158,6 +159,7 @@ pub fn check_text(r: &CheckResult) -> String {
         ),
     );
     row("inlier RMSE", format!("{:.3} mm", 1e3 * reg.inlier_rmse_m));
+    row("scan noise", format!("{:.3} mm", 1e3 * reg.scan_noise_m));
     row(
         "[59] trajectories RMS",
         format!("{:.3} mm", 1e3 * r.accuracy.rms_m),
