@@ -8,9 +8,10 @@
 //! inputs is refused then, before anything is written: inputs are never overwritten, and a run
 //! is not refused halfway. A run interrupted by a signal removes the temporary files it is
 //! writing before it exits ([`remove_unfinished`]). A run that wrote anything removes, as it
-//! ends, the products it declared but did not write, left in the folder by an earlier run: a
-//! failed rerun into the same `--out` does not leave the earlier run's summary and time series
-//! beside its own products.
+//! ends, the products it declared but did not write, left in the folder by an earlier run and
+//! untouched since this one started: a failed rerun into the same `--out` does not leave the
+//! earlier run's summary and time series beside its own products, and a run into the same
+//! folder meanwhile keeps what it wrote.
 
 use crate::error::{Error, Result};
 use serde::Serialize;
@@ -98,14 +99,28 @@ pub struct OutDir {
     created: Vec<PathBuf>,
     /// The products written so far.
     written: Mutex<Vec<&'static str>>,
+    /// The products an earlier run left in the folder, as they were when this run started
+    /// (length and modification time): removed as this run ends if it did not write them and
+    /// nothing else has written them meanwhile.
+    earlier: Vec<(&'static str, (u64, Option<std::time::SystemTime>))>,
+}
+
+/// What tells a file apart from one written over it: its length and modification time.
+fn stamp(path: &Path) -> Option<(u64, Option<std::time::SystemTime>)> {
+    let m = fs::metadata(path).ok().filter(fs::Metadata::is_file)?;
+    Some((m.len(), m.modified().ok()))
 }
 
 impl Drop for OutDir {
     fn drop(&mut self) {
         let written = self.written.get_mut().unwrap_or_else(PoisonError::into_inner);
         if !written.is_empty() {
-            for name in self.products.iter().filter(|p| !written.contains(p)) {
-                let _ = fs::remove_file(self.dir.join(name));
+            for (name, was) in self.earlier.iter().filter(|(p, _)| !written.contains(p)) {
+                let path = self.dir.join(name);
+                // Another run into the folder may have written it since.
+                if stamp(&path).as_ref() == Some(was) {
+                    let _ = fs::remove_file(path);
+                }
             }
         }
         for dir in &self.created {
@@ -163,11 +178,16 @@ impl OutDir {
             .ancestors()
             .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
             .collect();
+        let earlier = products
+            .iter()
+            .filter_map(|name| Some((*name, stamp(&dir.join(name))?)))
+            .collect();
         let mut out = OutDir {
             dir: dir.to_path_buf(),
             products,
             created: Vec::new(),
             written: Mutex::new(Vec::new()),
+            earlier,
         };
         // Level by level, each folder listed only if this run made it (not one another run
         // made meanwhile, nor `new/..`, which is there once `new` is).
@@ -370,8 +390,8 @@ mod tests {
 
     /// A rerun into the folder of an earlier run: what it does not write again is removed as it
     /// ends, once it has written anything (a run refused before writing leaves the folder as
-    /// it was); files that are not its products stay. A folder with a product's name is
-    /// refused before anything is written.
+    /// it was); files that are not its products, and products another run wrote meanwhile,
+    /// stay. A folder with a product's name is refused before anything is written.
     #[test]
     fn a_run_that_wrote_removes_the_earlier_runs_products_it_did_not_write() {
         let dir = tempfile::tempdir().unwrap();
@@ -392,6 +412,16 @@ mod tests {
         assert_eq!(fs::read(path("a.txt")).unwrap(), b"now");
         assert!(!path("b.txt").exists() && !path("summary.json").exists());
         assert!(path("notes.txt").exists());
+        // What another run into the folder wrote meanwhile stays (told apart by its length and
+        // modification time).
+        fs::write(path("b.txt"), b"earlier").unwrap();
+        let out = OutDir::create(dir.path(), &[], &products).unwrap();
+        out.write_bytes("a.txt", b"again").unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        fs::write(path("b.txt"), b"another run's").unwrap();
+        drop(out);
+        assert_eq!(fs::read(path("b.txt")).unwrap(), b"another run's");
+        fs::remove_file(path("b.txt")).unwrap();
         fs::create_dir(path("b.txt")).unwrap();
         let err = OutDir::create(dir.path(), &[], &products).unwrap_err();
         assert_eq!(err.exit_code(), 2);

@@ -657,7 +657,7 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     let o7 = dir.path().join("o7");
     let err = refused(&["run", p.to_str().unwrap(), "--out", o7.to_str().unwrap()], 2);
     assert!(
-        err.contains("variant.toml: trajectory: the run could take"),
+        err.contains("variant.toml: the planned trajectory: the run could take"),
         "{err}"
     );
     assert!(!o7.exists(), "files left");
@@ -670,7 +670,7 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
     let p = pipeline_with("bottle_cleaning", dir.path(), "fine.toml", &fine);
     let err = refused(&["run", p.to_str().unwrap(), "--out", o7.to_str().unwrap()], 2);
     assert!(
-        err.contains("fine.toml: trajectory: the run could take 4.445e6 control periods")
+        err.contains("fine.toml: the planned trajectory: the run could take 4.445e6 control periods")
             && err.ends_with("of sim.plant_substeps 1000 plant steps each, 4.445e9 steps: at most 1e8\n"),
         "{err}"
     );

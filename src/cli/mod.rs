@@ -152,10 +152,19 @@ pub(crate) const PLAN_TABLES: [&str; 8] = [
 /// A stage's error about a value of the configuration file `file` (found only once the stage
 /// ran) named as the file's other errors are, by the file and the whole key: the first of
 /// `tables` (a table of the file, and the keys it holds, by their start) holding the key the
-/// error names. Other errors, and any without a file, are unchanged.
+/// error names. A key is a bare one (`cluster.tolerance_m`), not a file the commands read
+/// (`line.csv`, `seabed.ply`) nor an error named already (`ring.toml: …`). Other errors, and
+/// any without a file, are unchanged.
 pub(crate) fn named_in(e: Error, file: Option<&std::path::Path>, tables: &[(&str, &[&str])]) -> Error {
+    let is_key = |what: &str| {
+        what.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "._[]".contains(c))
+            && !what
+                .rsplit_once('.')
+                .is_some_and(|(_, ext)| ["ply", "csv", "toml", "json"].contains(&ext))
+    };
     let table = match (&e, file) {
-        (Error::Input { what, .. }, Some(_)) => tables
+        (Error::Input { what, .. }, Some(_)) if is_key(what) => tables
             .iter()
             .find(|(_, keys)| keys.iter().any(|k| what.starts_with(k)))
             .map(|(table, _)| *table),
@@ -164,6 +173,15 @@ pub(crate) fn named_in(e: Error, file: Option<&std::path::Path>, tables: &[(&str
     match (table, file) {
         (Some(table), Some(file)) => e.in_table(file.display(), table),
         _ => e,
+    }
+}
+
+/// `e` with the name `name` for the trajectory it blames (what [`crate::sim::check_trajectory`]
+/// refuses names the trajectory): its file, or the pipeline's planned one.
+pub(crate) fn trajectory_named(e: Error, name: impl std::fmt::Display) -> Error {
+    match e {
+        Error::Input { what, reason } if what == "trajectory" => Error::input(name, reason),
+        other => other,
     }
 }
 
@@ -200,4 +218,31 @@ pub fn execute(cli: Cli) -> Result<()> {
         println!("{}", report.summary);
     }
     report.failure.map_or(Ok(()), Err)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stage's error about a key is named by the file and the key's table; one about a file
+    /// whose name looks like a key (`seabed.ply`, `line.csv line 3`), or one already named, is
+    /// not (they read `c.toml: perception.seabed.ply`).
+    #[test]
+    fn named_in_names_keys_not_files() {
+        let file = Some(std::path::Path::new("c.toml"));
+        let named = |what: &str| named_in(Error::input(what, "why"), file, &PIPELINE_TABLES).to_string();
+        assert_eq!(
+            named("cluster.tolerance_m"),
+            "c.toml: perception.cluster.tolerance_m: why"
+        );
+        assert_eq!(named("ring.offset_m[2]"), "c.toml: plan.ring.offset_m[2]: why");
+        for what in [
+            "seabed.ply",
+            "line.csv line 3",
+            "ring.toml: the planned trajectory",
+            "sim.x",
+        ] {
+            assert_eq!(named(what), format!("{what}: why"));
+        }
+    }
 }

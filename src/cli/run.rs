@@ -13,7 +13,7 @@
 use super::check::init_file;
 use super::plan::{PlanCommandConfig, PlanInputs, plan_stage};
 use super::sim::{load_sim_inputs, resolve_paths, sim_stage, surface_file};
-use super::{Ctx, PIPELINE_TABLES, Report, named_in};
+use super::{Ctx, PIPELINE_TABLES, Report, named_in, trajectory_named};
 use crate::config::relative_to;
 use crate::error::{Error, Result};
 use crate::io::ply::write_mesh;
@@ -167,7 +167,7 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     if let Some(missing) = inputs.iter().find(|f| !f.exists()) {
         return Err(Error::input(missing.display(), "no such file"));
     }
-    let in_pipeline = |e| named_in(e, Some(&args.pipeline), &[("", &["sim", "trajectory"])]);
+    let in_pipeline = |e| named_in(e, Some(&args.pipeline), &[("", &["sim"])]);
     let sim_inputs = load_sim_inputs(&p.sim, &p.plan.frames).map_err(in_pipeline)?;
     let mut products = super::plan::products();
     products.extend(super::sim::PRODUCTS);
@@ -182,7 +182,12 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     };
     // What only the plan tells (the run's length, the settling time against the contact) is
     // checked before the plan's stage writes.
-    let accept = |t: &Trajectory| check_trajectory(t, &p.sim).map(|_| ()).map_err(in_pipeline);
+    let planned_trajectory = format!("{}: the planned trajectory", args.pipeline.display());
+    let accept = |t: &Trajectory| {
+        check_trajectory(t, &p.sim)
+            .map(|_| ())
+            .map_err(|e| in_pipeline(trajectory_named(e, &planned_trajectory)))
+    };
     let planned = plan_stage(&p.input, &plan_cfg, &out, &accept)
         .map_err(|e| named_in(e, Some(&args.pipeline), &PIPELINE_TABLES))?;
     let plan_s = started.elapsed().as_secs_f64();

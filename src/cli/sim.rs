@@ -508,12 +508,8 @@ pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
     check_frames(&trajectory, &args.trajectory, &cfg)?;
     let in_config = |e| super::named_in(e, args.config.as_deref(), &[("", &["sim"])]);
     // What the trajectory's own length makes too long a run is the file's.
-    crate::sim::check_trajectory(&trajectory, &cfg.sim).map_err(|e| match e {
-        Error::Input { what, reason } if what == "trajectory" => {
-            Error::input(args.trajectory.display(), reason)
-        }
-        other => in_config(other),
-    })?;
+    crate::sim::check_trajectory(&trajectory, &cfg.sim)
+        .map_err(|e| in_config(super::trajectory_named(e, args.trajectory.display())))?;
     let sim_inputs = load_sim_inputs(&cfg.sim, &cfg.frames).map_err(in_config)?;
     let mut inputs: Vec<&Path> = vec![&args.trajectory];
     inputs.extend(cfg.sim.surface.as_deref());

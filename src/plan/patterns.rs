@@ -253,8 +253,8 @@ pub fn validate(
     ] {
         positive(what, v)?;
     }
-    bounded_count("ring.width_m", ring.width_m, ring.spacing_m)?;
-    bounded_count("raster.height_m", raster.height_m, raster.spacing_m)?;
+    bounded_count("ring.width_m", ring.width_m, ring.spacing_m, "")?;
+    bounded_count("raster.height_m", raster.height_m, raster.spacing_m, "")?;
     if !(ring.arc_deg.is_finite() && (0.0..=360.0).contains(&ring.arc_deg)) {
         return Err(Error::input("ring.arc_deg", "must be between 0 and 360"));
     }
@@ -994,7 +994,7 @@ pub fn polyline(ctx: &Context, cfg: &PolylineConfig) -> Result<PatternPath> {
         .collect();
     let step = pj.config.step_m;
     let total: f64 = pts.windows(2).map(|w| (w[1].0 - w[0].0).norm()).sum();
-    bounded_count(&file.display().to_string(), total, step)?;
+    bounded_count(&file.display().to_string(), total, step, "")?;
     let mut guides = Vec::new();
     let mut tau = 0.0;
     let mut previous: Option<Point3<f64>> = None;

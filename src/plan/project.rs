@@ -96,15 +96,15 @@ impl ProjectionConfig {
 pub const MAX_COUNT: f64 = 1e7;
 
 /// `Ok` if `numerator / denominator` (a count of steps) is at most [`MAX_COUNT`], else an input
-/// error naming `what`.
-pub(crate) fn bounded_count(what: &str, numerator: f64, denominator: f64) -> Result<()> {
+/// error naming `what`, its reason starting with `context` (what needs the steps, or "").
+pub(crate) fn bounded_count(what: &str, numerator: f64, denominator: f64, context: &str) -> Result<()> {
     if numerator / denominator <= MAX_COUNT {
         Ok(())
     } else {
         Err(Error::input(
             what,
             format!(
-                "would need {:.3e} steps (at most {MAX_COUNT:.0e}); use a coarser step or a smaller extent",
+                "{context}would need {:.3e} steps (at most {MAX_COUNT:.0e}); use a coarser step or a smaller extent",
                 numerator / denominator
             ),
         ))

@@ -12,7 +12,7 @@
 //! seed's advice for critical operations); after the last point it retreats along `-k`. No force
 //! is demanded during the approach and the retreat.
 
-use super::project::{MAX_COUNT, PathPoint};
+use super::project::{MAX_COUNT, PathPoint, bounded_count};
 use crate::config::{non_negative, positive, shown};
 use crate::error::{Error, Result};
 use crate::trajectory::{Phase, Sample};
@@ -114,16 +114,11 @@ impl TimingConfig {
             ),
         ];
         for (phase, set_by, seconds) in phases {
-            let samples = seconds / self.sample_period_s;
-            if samples.is_nan() || samples > MAX_COUNT {
-                return Err(Error::input(
-                    "timing.sample_period_s",
-                    format!(
-                        "{phase} ({set_by}) would need {samples:.3e} samples {} s apart, at most {MAX_COUNT:.0e}",
-                        shown(self.sample_period_s)
-                    ),
-                ));
-            }
+            let context = format!(
+                "{phase} ({set_by}) at {} s a sample ",
+                shown(self.sample_period_s)
+            );
+            bounded_count("timing.sample_period_s", seconds, self.sample_period_s, &context)?;
         }
         if self.spacing() < 1e-6 {
             return Err(Error::input(
@@ -448,7 +443,7 @@ mod tests {
         );
         let msg = refused(|c| c.dwell_s = 1e12);
         assert!(
-            msg.contains("the dwell (timing.dwell_s 1e12) would need 2.000e13 samples 0.05 s apart"),
+            msg.contains("the dwell (timing.dwell_s 1e12) at 0.05 s a sample would need 2.000e13 steps"),
             "{msg}"
         );
         let msg = refused(|c| c.speed_m_s = 1e-9);

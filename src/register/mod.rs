@@ -397,11 +397,15 @@ pub fn register(
     let scan_noise_m = scan_noise(scan, scan_index);
     let noise_gate = cfg.icp.gate_sigmas * cfg.max_noise_ratio * scan_noise_m;
     if cfg.max_noise_ratio > 0.0 && icp.gate_m > noise_gate.max(cfg.icp.min_gate_m) {
+        let spread = if scan_noise_m > 0.0 {
+            format!("{:.0} times", icp.gate_m / (cfg.icp.gate_sigmas * scan_noise_m))
+        } else {
+            "beyond".into()
+        };
         return Err(Error::failed(
             "icp",
             format!(
-                "its residuals spread {:.0} times the scan's own noise, {:.3} mm (its last gate {:.2} mm; register.max_noise_ratio {}): a wrong alignment, or a reference that does not fit the object: {reached}",
-                icp.gate_m / (cfg.icp.gate_sigmas * scan_noise_m),
+                "its residuals spread {spread} the scan's own noise, {:.3} mm (its last gate {:.2} mm; register.max_noise_ratio {}): a wrong alignment, or a reference that does not fit the object: {reached}",
                 scan_noise_m * 1e3,
                 icp.gate_m * 1e3,
                 crate::config::shown(cfg.max_noise_ratio)
