@@ -135,7 +135,7 @@ fn sample_the_sediment_without_a_reference() {
         ]);
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
         assert!(
-            stderr(&o).contains(&format!("{option}: needs --reference")),
+            stderr(&o).contains(&format!("{option}: needs the reference model (--reference")),
             "{}",
             stderr(&o)
         );

@@ -651,6 +651,30 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         assert!(err.contains(named), "{err}");
         assert!(!o5.exists(), "{extra}: files left");
     }
+    // The `[input]` keys a stage refuses, named as the pipeline's keys (they were named as
+    // `uvms plan`'s options): a ring without a reference, an initial guess without one.
+    let ring = repo("data/models/bottle.ply");
+    let reference = format!("reference = \"{}\"", ring.display());
+    let p = pipeline_with("bottle_cleaning", dir.path(), "noref.toml", &[(&reference, "")]);
+    let o8 = dir.path().join("o8");
+    let err = refused(&["run", p.to_str().unwrap(), "--out", o8.to_str().unwrap()], 2);
+    assert!(
+        err.contains("noref.toml: input.reference: the ring pattern needs the reference model"),
+        "{err}"
+    );
+    let scan = format!("scan = \"{}\"", repo("data/scans/sediment/scan.ply").display());
+    let p = pipeline_with(
+        "soil_sampling",
+        dir.path(),
+        "init.toml",
+        &[(&scan, &format!("{scan}\ninit = \"identity\""))],
+    );
+    let err = refused(&["run", p.to_str().unwrap(), "--out", o8.to_str().unwrap()], 2);
+    assert!(
+        err.contains("init.toml: input.init: needs the reference model"),
+        "{err}"
+    );
+    assert!(!o8.exists(), "files left");
     // What only the plan tells (a turn so slow the run would take 10¹⁴ periods): found once
     // the plan is made, before its stage writes: nothing written, the folder made gone again.
     let p = variant(dir.path(), "[plan.tool]\nmax_rate_deg_s = 1e-9");

@@ -290,7 +290,7 @@ pub fn plan_stage(
         if let Some(option) = given {
             return Err(Error::input(
                 option,
-                "needs --reference: without a reference model there is no alignment to start or check",
+                "needs the reference model (--reference, [input] reference): without one there is no alignment to start or check",
             ));
         }
     }

@@ -188,8 +188,19 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
             .map(|_| ())
             .map_err(|e| in_pipeline(trajectory_named(e, &planned_trajectory)))
     };
-    let planned = plan_stage(&p.input, &plan_cfg, &out, &accept)
-        .map_err(|e| named_in(e, Some(&args.pipeline), &PIPELINE_TABLES))?;
+    // The stage names `uvms plan`'s options; here they are the pipeline's `[input]` keys.
+    let as_input_key = |e| match e {
+        Error::Input { what, reason } if what.starts_with("--") && !what.contains(' ') => Error::input(
+            format!(
+                "{}: input.{}",
+                args.pipeline.display(),
+                what[2..].replace('-', "_")
+            ),
+            reason,
+        ),
+        other => named_in(other, Some(&args.pipeline), &PIPELINE_TABLES),
+    };
+    let planned = plan_stage(&p.input, &plan_cfg, &out, &accept).map_err(as_input_key)?;
     let plan_s = started.elapsed().as_secs_f64();
     stages.inc(1);
     text += &planned.text;
