@@ -658,23 +658,21 @@ impl UvmsModel {
         for (i, l) in a.links.iter().enumerate() {
             let field = |f: &str| format!("arm.links[{}].{f}", i + 1);
             finite(&field("dh"), &[l.dh.theta_offset, l.dh.d, l.dh.a, l.dh.alpha])?;
-            let scalars = [
-                ("mass", l.mass),
-                ("motor_inertia", l.motor_inertia),
-                ("gear_ratio", l.gear_ratio),
-                ("viscous_friction", l.viscous_friction),
-                ("torque_limit", l.torque_limit),
-            ];
-            for (name, v) in scalars {
+            // Each drive value finite, and those that are magnitudes not negative.
+            for (name, v, magnitude) in [
+                ("mass", l.mass, true),
+                ("motor_inertia", l.motor_inertia, true),
+                ("gear_ratio", l.gear_ratio, false),
+                ("viscous_friction", l.viscous_friction, true),
+                ("torque_limit", l.torque_limit, false),
+            ] {
                 finite(&field(name), &[v])?;
-            }
-            finite(&field("coulomb_friction"), &l.coulomb_friction)?;
-            finite(&field("center_of_mass"), &l.center_of_mass)?;
-            for (name, v) in [scalars[0], scalars[1], scalars[3]] {
-                if v < 0.0 {
+                if magnitude && v < 0.0 {
                     return Err(bad(&field(name), "must be >= 0"));
                 }
             }
+            finite(&field("coulomb_friction"), &l.coulomb_friction)?;
+            finite(&field("center_of_mass"), &l.center_of_mass)?;
             if l.coulomb_friction[0] < 0.0 || l.coulomb_friction[1] > 0.0 {
                 return Err(bad(
                     &field("coulomb_friction"),

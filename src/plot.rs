@@ -658,8 +658,13 @@ fn pen(s: &Series, k: usize, lw: f64) -> (f64, Rgb) {
     let c = PALETTE[s.color.unwrap_or(k) % PALETTE.len()];
     match s.stroke {
         Stroke::Line => (lw, c),
-        Stroke::Band => (4.0 * lw, c.map(|v| 255 - ((255 - v) as f32 * 0.4).round() as u8)),
+        Stroke::Band => (4.0 * lw, tint(c)),
     }
+}
+
+/// The pale tint of `c` a band is drawn in.
+fn tint(c: Rgb) -> Rgb {
+    c.map(|v| 255 - ((255 - v) as f32 * 0.4).round() as u8)
 }
 
 /// First, lowest, highest and last point (in index order) of a run of points in one pixel column.
@@ -1581,7 +1586,7 @@ mod tests {
             [raster.rgb[i], raster.rgb[i + 1], raster.rgb[i + 2]]
         };
         let line = PALETTE[3];
-        let tint = line.map(|v| 255 - ((255 - v) as f32 * 0.4).round() as u8);
+        let tint = tint(line);
         // On the line its full colour (the band did not paint over it); beside it, within the
         // band's half width of 2 line widths, the tint; past the band, white.
         assert_eq!(pixel(0.0), line);

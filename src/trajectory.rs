@@ -493,18 +493,11 @@ mod tests {
             );
         }
         // A quaternion and a k off unit length within the tolerance are scaled to unit length.
-        let mut lines: Vec<String> = csv(&t).lines().map(String::from).collect();
-        let row = lines.iter().position(|l| l.starts_with("t_s")).unwrap() + 1;
-        let fields: Vec<String> = lines[row]
-            .split(',')
-            .enumerate()
-            .map(|(c, v)| match c {
-                4..=10 => (v.parse::<f64>().unwrap() * 1.0002).to_string(),
-                _ => v.to_string(),
-            })
-            .collect();
-        lines[row] = fields.join(",");
-        let back = Trajectory::from_csv_str(&lines.join("\n"), "t.csv").unwrap();
+        let (text, _) = edited(0, |c, v| match c {
+            4..=10 => (v.parse::<f64>().unwrap() * 1.0002).to_string(),
+            _ => v.to_string(),
+        });
+        let back = Trajectory::from_csv_str(&text, "t.csv").unwrap();
         let b = &back.samples[0];
         assert!((b.orientation.quaternion().norm() - 1.0).abs() < 1e-15);
         assert!((b.k.norm() - 1.0).abs() < 1e-15);
@@ -520,20 +513,27 @@ mod tests {
 
     /// As [`corrupt`], several fields of the row.
     fn corrupt_fields(row: usize, values: &[(usize, String)]) -> String {
-        let text = csv(&demo());
-        let mut lines: Vec<String> = text.lines().map(String::from).collect();
-        let first = lines.iter().position(|l| l.starts_with("t_s")).unwrap() + 1;
-        let mut f: Vec<String> = lines[first + row].split(',').map(String::from).collect();
-        for (col, value) in values {
-            f[*col] = value.clone();
-        }
-        lines[first + row] = f.join(",");
-        let err = Trajectory::from_csv_str(&lines.join("\n"), "t.csv").unwrap_err();
+        let (text, line_no) = edited(row, |c, v| {
+            values
+                .iter()
+                .find(|(col, _)| *col == c)
+                .map_or_else(|| v.to_string(), |(_, value)| value.clone())
+        });
+        let err = Trajectory::from_csv_str(&text, "t.csv").unwrap_err();
         assert_eq!(err.exit_code(), 2);
         let msg = err.to_string();
-        let line_no = first + row + 1;
         assert!(msg.contains(&format!("t.csv line {line_no}")), "{msg}");
         msg
+    }
+
+    /// The demo's CSV with data row `row` (0-based) edited field by field (`edit(column,
+    /// value)`), and that row's line number.
+    fn edited(row: usize, edit: impl Fn(usize, &str) -> String) -> (String, usize) {
+        let mut lines: Vec<String> = csv(&demo()).lines().map(String::from).collect();
+        let i = lines.iter().position(|l| l.starts_with("t_s")).unwrap() + 1 + row;
+        let fields: Vec<String> = lines[i].split(',').enumerate().map(|(c, v)| edit(c, v)).collect();
+        lines[i] = fields.join(",");
+        (lines.join("\n"), i + 1)
     }
 
     #[test]

@@ -100,6 +100,21 @@ fn milk_carton_from_30_degrees_and_50_mm_off() {
     );
 }
 
+/// Two Stanford scans as `check` takes them: the scan, the model made of `reference` (named
+/// `name`), and the configuration with the camera 1 m out along +z (see the module docs).
+fn bunny_pair(
+    scan: &std::path::Path,
+    reference: &std::path::Path,
+    name: &str,
+) -> (PointCloud, ReferenceModel, PerceptionConfig) {
+    let (scan, _) = read_cloud(scan).unwrap();
+    let (reference, _) = read_cloud(reference).unwrap();
+    let mut cfg = PerceptionConfig::default();
+    cfg.view.camera_m = [0.0, 0.0, 1.0];
+    let model = ReferenceModel::from_cloud(reference, &cfg.normals, name).unwrap();
+    (scan, model, cfg)
+}
+
 #[test]
 fn bunny_045_onto_000_from_identity() {
     let (Some(b0), Some(b45), Some(gt)) = (
@@ -109,14 +124,10 @@ fn bunny_045_onto_000_from_identity() {
     ) else {
         return;
     };
-    let (scan, _) = read_cloud(&b0).unwrap();
-    let (reference, _) = read_cloud(&b45).unwrap();
     let truth = read_pose_file(&gt, "T_bun000_from_bun045").unwrap();
     let (deg0, m0) = uvms::frames::pose_error(&Pose::identity(), &truth);
     assert!((deg0 - 34.3).abs() < 0.1 && (m0 - 0.0532).abs() < 1e-3);
-    let mut cfg = PerceptionConfig::default();
-    cfg.view.camera_m = [0.0, 0.0, 1.0];
-    let model = ReferenceModel::from_cloud(reference, &cfg.normals, "bun045").unwrap();
+    let (scan, model, cfg) = bunny_pair(&b0, &b45, "bun045");
     let opts = CheckOptions {
         init: InitMode::Given(Pose::identity()),
         whole_scan: true,
@@ -167,11 +178,7 @@ fn a_wrong_bunny_alignment_is_refused_and_the_true_one_accepted() {
     let truth = bunny_pose(&gt, "bun180.ply").inverse() * bunny_pose(&gt, "bun270.ply");
     let (deg0, _) = uvms::frames::pose_error(&Pose::identity(), &truth);
     assert!((80.0..100.0).contains(&deg0), "{deg0}");
-    let (scan, _) = read_cloud(&b180).unwrap();
-    let (reference, _) = read_cloud(&b270).unwrap();
-    let mut cfg = PerceptionConfig::default();
-    cfg.view.camera_m = [0.0, 0.0, 1.0];
-    let model = ReferenceModel::from_cloud(reference, &cfg.normals, "bun270").unwrap();
+    let (scan, model, cfg) = bunny_pair(&b180, &b270, "bun270");
     let from = |init: Pose| CheckOptions {
         init: InitMode::Given(init),
         whole_scan: true,

@@ -272,7 +272,7 @@ pub fn run(args: &CheckArgs, _ctx: &Ctx) -> Result<Report> {
         truth,
     };
     let result = check(&scan, &model, &opts, &cfg)
-        .map_err(|e| super::named_in(e, args.config.as_deref(), &[("", &super::PERCEPTION_TABLES)]))?;
+        .map_err(|e| super::named_in(e, args.config.as_deref(), &super::perception_tables()))?;
     let mut summary = check_summary(&result);
     summary["scan"] = json!(args.scan.display().to_string());
     summary["reference"] = json!(args.reference.display().to_string());

@@ -125,29 +125,32 @@ pub(crate) fn config_origin(config: Option<&std::path::Path>) -> String {
     config.map_or_else(|| "configuration".into(), |p| p.display().to_string())
 }
 
-/// The sub-tables of the perception's configuration (`[perception]` in a pipeline) and of the
-/// plan's (`[plan]`), whose keys a stage may name in an error it finds only as it runs.
-pub(crate) const PERCEPTION_TABLES: [&str; 9] = [
-    "view.",
-    "clean.",
-    "seabed.",
-    "cluster.",
-    "select.",
-    "normals.",
-    "register.",
-    "surface.",
-    "accuracy.",
-];
-pub(crate) const PLAN_TABLES: [&str; 8] = [
-    "ring.",
-    "raster.",
-    "line.",
-    "polyline.",
-    "projection.",
-    "tool.",
-    "timing.",
-    "frames.",
-];
+/// The sub-tables of a configuration `T` (`clean.`, `cluster.`, …, the keys whose values are
+/// tables), by which a stage's error names a key it finds wrong only as it runs.
+fn tables_of<T: serde::Serialize + Default>() -> Vec<String> {
+    match toml::Value::try_from(T::default()) {
+        Ok(toml::Value::Table(t)) => t
+            .iter()
+            .filter(|(_, v)| v.is_table())
+            .map(|(k, _)| format!("{k}."))
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// The tables of a perception configuration (`segment --config`, `check --config`), for
+/// [`named_in`].
+pub(crate) fn perception_tables() -> [(&'static str, Vec<String>); 1] {
+    [("", tables_of::<crate::perception::PerceptionConfig>())]
+}
+
+/// The tables of a pipeline file, or of `uvms plan --config`'s file, for [`named_in`].
+pub(crate) fn pipeline_tables() -> [(&'static str, Vec<String>); 2] {
+    [
+        ("perception.", tables_of::<crate::perception::PerceptionConfig>()),
+        ("plan.", tables_of::<crate::plan::PlanConfig>()),
+    ]
+}
 
 /// A stage's error about a value of the configuration file `file` (found only once the stage
 /// ran) named as the file's other errors are, by the file and the whole key: the first of
@@ -155,7 +158,7 @@ pub(crate) const PLAN_TABLES: [&str; 8] = [
 /// error names. A key is a bare one (`cluster.tolerance_m`), not a file the commands read
 /// (`line.csv`, `seabed.ply`) nor an error named already (`ring.toml: …`). Other errors, and
 /// any without a file, are unchanged.
-pub(crate) fn named_in(e: Error, file: Option<&std::path::Path>, tables: &[(&str, &[&str])]) -> Error {
+pub(crate) fn named_in(e: Error, file: Option<&std::path::Path>, tables: &[(&str, Vec<String>)]) -> Error {
     let is_key = |what: &str| {
         what.chars()
             .all(|c| c.is_ascii_alphanumeric() || "._[]".contains(c))
@@ -175,19 +178,6 @@ pub(crate) fn named_in(e: Error, file: Option<&std::path::Path>, tables: &[(&str
         _ => e,
     }
 }
-
-/// `e` with the name `name` for the trajectory it blames (what [`crate::sim::check_trajectory`]
-/// refuses names the trajectory): its file, or the pipeline's planned one.
-pub(crate) fn trajectory_named(e: Error, name: impl std::fmt::Display) -> Error {
-    match e {
-        Error::Input { what, reason } if what == "trajectory" => Error::input(name, reason),
-        other => other,
-    }
-}
-
-/// The tables of a pipeline file, or of `uvms plan --config`'s file, for [`named_in`].
-pub(crate) const PIPELINE_TABLES: [(&str, &[&str]); 2] =
-    [("perception.", &PERCEPTION_TABLES), ("plan.", &PLAN_TABLES)];
 
 /// Runs a parsed command line: the command, then its summary and text.
 ///
@@ -230,7 +220,7 @@ mod tests {
     #[test]
     fn named_in_names_keys_not_files() {
         let file = Some(std::path::Path::new("c.toml"));
-        let named = |what: &str| named_in(Error::input(what, "why"), file, &PIPELINE_TABLES).to_string();
+        let named = |what: &str| named_in(Error::input(what, "why"), file, &pipeline_tables()).to_string();
         assert_eq!(
             named("cluster.tolerance_m"),
             "c.toml: perception.cluster.tolerance_m: why"

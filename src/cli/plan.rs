@@ -168,7 +168,7 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
     files.extend(cfg.plan.polyline.file.as_deref());
     let out = OutDir::create(&args.out, &files, &products())?;
     let mut stage = plan_stage(&inputs, &cfg, &out, &|_| Ok(()))
-        .map_err(|e| super::named_in(e, args.config.as_deref(), &super::PIPELINE_TABLES))?;
+        .map_err(|e| super::named_in(e, args.config.as_deref(), &super::pipeline_tables()))?;
     out.write_toml("config.toml", &cfg)?;
     let _ = writeln!(
         stage.text,

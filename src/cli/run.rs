@@ -13,7 +13,7 @@
 use super::check::init_file;
 use super::plan::{PlanCommandConfig, PlanInputs, plan_stage};
 use super::sim::{load_sim_inputs, resolve_paths, sim_stage, surface_file};
-use super::{Ctx, PIPELINE_TABLES, Report, named_in, trajectory_named};
+use super::{Ctx, Report, named_in, pipeline_tables};
 use crate::config::relative_to;
 use crate::error::{Error, Result};
 use crate::io::ply::write_mesh;
@@ -167,7 +167,7 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     if let Some(missing) = inputs.iter().find(|f| !f.exists()) {
         return Err(Error::input(missing.display(), "no such file"));
     }
-    let in_pipeline = |e| named_in(e, Some(&args.pipeline), &[("", &["sim"])]);
+    let in_pipeline = |e| named_in(e, Some(&args.pipeline), &[("", vec!["sim".into()])]);
     let sim_inputs = load_sim_inputs(&p.sim, &p.plan.frames).map_err(in_pipeline)?;
     let mut products = super::plan::products();
     products.extend(super::sim::PRODUCTS);
@@ -184,21 +184,16 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
     // checked before the plan's stage writes.
     let planned_trajectory = format!("{}: the planned trajectory", args.pipeline.display());
     let accept = |t: &Trajectory| {
-        check_trajectory(t, &p.sim)
+        check_trajectory(t, &p.sim, &planned_trajectory)
             .map(|_| ())
-            .map_err(|e| in_pipeline(trajectory_named(e, &planned_trajectory)))
+            .map_err(in_pipeline)
     };
     // The stage names `uvms plan`'s options; here they are the pipeline's `[input]` keys.
     let as_input_key = |e| match e {
-        Error::Input { what, reason } if what.starts_with("--") && !what.contains(' ') => Error::input(
-            format!(
-                "{}: input.{}",
-                args.pipeline.display(),
-                what[2..].replace('-', "_")
-            ),
-            reason,
-        ),
-        other => named_in(other, Some(&args.pipeline), &PIPELINE_TABLES),
+        Error::Input { what, reason } if what.starts_with("--") && !what.contains(' ') => {
+            Error::input(what[2..].replace('-', "_"), reason).in_table(args.pipeline.display(), "input.")
+        }
+        other => named_in(other, Some(&args.pipeline), &pipeline_tables()),
     };
     let planned = plan_stage(&p.input, &plan_cfg, &out, &accept).map_err(as_input_key)?;
     let plan_s = started.elapsed().as_secs_f64();

@@ -228,7 +228,7 @@ pub fn run(args: &SegmentArgs, _ctx: &Ctx) -> Result<Report> {
         reference.as_ref().map(|r| &r.shape.spans),
         &cfg,
     )
-    .map_err(|e| super::named_in(e, args.config.as_deref(), &[("", &super::PERCEPTION_TABLES)]))?;
+    .map_err(|e| super::named_in(e, args.config.as_deref(), &super::perception_tables()))?;
     let (scene, clusters) = coloured(&seg);
     out.write_with("segmented.ply", |w| write_cloud(w, &scene))?;
     out.write_with("clusters.ply", |w| write_cloud(w, &clusters))?;

@@ -506,10 +506,10 @@ pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
     }
     let trajectory = Trajectory::read_csv(&args.trajectory)?;
     check_frames(&trajectory, &args.trajectory, &cfg)?;
-    let in_config = |e| super::named_in(e, args.config.as_deref(), &[("", &["sim"])]);
+    let in_config = |e| super::named_in(e, args.config.as_deref(), &[("", vec!["sim".into()])]);
     // What the trajectory's own length makes too long a run is the file's.
-    crate::sim::check_trajectory(&trajectory, &cfg.sim)
-        .map_err(|e| in_config(super::trajectory_named(e, args.trajectory.display())))?;
+    crate::sim::check_trajectory(&trajectory, &cfg.sim, &args.trajectory.display().to_string())
+        .map_err(in_config)?;
     let sim_inputs = load_sim_inputs(&cfg.sim, &cfg.frames).map_err(in_config)?;
     let mut inputs: Vec<&Path> = vec![&args.trajectory];
     inputs.extend(cfg.sim.surface.as_deref());

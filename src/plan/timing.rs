@@ -88,32 +88,29 @@ impl TimingConfig {
         positive("timing.retreat_speed_m_s", self.retreat_speed_m_s)?;
         // Each phase's samples, named by what sets its length; the sample period is the
         // other factor of each count.
+        let standoff = |key: &str, speed: f64| {
+            let set_by = format!(
+                "timing.standoff_m {} m at timing.{key} {} m/s",
+                shown(self.standoff_m),
+                shown(speed)
+            );
+            (set_by, self.standoff_m / speed)
+        };
         let phases = [
             (
                 "the approach",
-                format!(
-                    "timing.standoff_m {} m at timing.approach_speed_m_s {} m/s",
-                    shown(self.standoff_m),
-                    shown(self.approach_speed_m_s)
-                ),
-                self.standoff_m / self.approach_speed_m_s,
+                standoff("approach_speed_m_s", self.approach_speed_m_s),
             ),
             (
                 "the retreat",
-                format!(
-                    "timing.standoff_m {} m at timing.retreat_speed_m_s {} m/s",
-                    shown(self.standoff_m),
-                    shown(self.retreat_speed_m_s)
-                ),
-                self.standoff_m / self.retreat_speed_m_s,
+                standoff("retreat_speed_m_s", self.retreat_speed_m_s),
             ),
             (
                 "the dwell",
-                format!("timing.dwell_s {}", shown(self.dwell_s)),
-                self.dwell_s,
+                (format!("timing.dwell_s {}", shown(self.dwell_s)), self.dwell_s),
             ),
         ];
-        for (phase, set_by, seconds) in phases {
+        for (phase, (set_by, seconds)) in phases {
             let context = format!(
                 "{phase} ({set_by}) at {} s a sample ",
                 shown(self.sample_period_s)

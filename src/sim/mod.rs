@@ -531,7 +531,7 @@ pub fn simulate(
     progress: &mut dyn FnMut(f64),
 ) -> Result<SimOutput> {
     cfg.validate()?;
-    let (t0, t_end) = check_trajectory(trajectory, cfg)?;
+    let (t0, t_end) = check_trajectory(trajectory, cfg, "trajectory")?;
     check_plant_model(plant_model)?;
     let mut plant_model = plant_model.clone();
     plant_model.environment.current = cfg.scenario.current_m_s;
@@ -1015,10 +1015,10 @@ pub fn check_plant_model(model: &UvmsModel) -> Result<()> {
 /// Returns the trajectory's first and last times.
 ///
 /// # Errors
-/// [`Error::Input`] naming the trajectory or the key.
-pub fn check_trajectory(trajectory: &Trajectory, cfg: &SimConfig) -> Result<(f64, f64)> {
+/// [`Error::Input`] naming the trajectory (as `name`: its file, say) or the key.
+pub fn check_trajectory(trajectory: &Trajectory, cfg: &SimConfig, name: &str) -> Result<(f64, f64)> {
     let (Some(first), Some(last)) = (trajectory.samples.first(), trajectory.samples.last()) else {
-        return Err(Error::input("trajectory", "has no samples"));
+        return Err(Error::input(name, "has no samples"));
     };
     let (t0, t_end) = (first.t, last.t);
     // The longest run the trajectory, the tail and the dwell's wait can make, in periods, and
@@ -1027,7 +1027,7 @@ pub fn check_trajectory(trajectory: &Trajectory, cfg: &SimConfig) -> Result<(f64
     let steps = periods * cfg.plant_substeps as f64;
     if steps.is_nan() || steps > MAX_STEPS {
         return Err(Error::input(
-            "trajectory",
+            name,
             format!(
                 "the run could take {periods:.3e} control periods (trajectory {:.3e} s, sim.tail_s {:.3e} s, sim.dwell.max_wait_s {:.3e} s at sim.control_rate_hz {}) of sim.plant_substeps {} plant steps each, {steps:.3e} steps: at most {MAX_STEPS:.0e}",
                 t_end - t0,
