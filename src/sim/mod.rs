@@ -678,7 +678,10 @@ pub fn simulate(
         ((cfg.control_rate_hz / (20.0 * cfg.joints.rate_feedforward_hz)).floor() as usize).max(1);
     let mut rate_from: Option<Isometry3<f64>> = None;
     let mut qd_set = JointVector::zeros();
+    // The true values of the previous period, which the identification (made of that period's
+    // sensor readings) is scored against.
     let mut m_ez_true_prev = JointVector::zeros();
+    let mut f_env_true_prev = Vector3::zeros();
     // The force the bumpless start holds (below), from the period the force loop takes over;
     // zero once the trajectory's ramp has reached it.
     let mut held: Option<f64> = None;
@@ -850,7 +853,7 @@ pub fn simulate(
                 tau: &tau,
                 m_ez_true: &m_ez_true_prev,
                 m_ez_id: &id.m_ez,
-                f_env_true: &cs.wrench.lin,
+                f_env_true: &f_env_true_prev,
                 f_imp_est: &f_imp_est,
                 t_world_tool: &t_world_tool,
                 current: &plant.system.current,
@@ -863,7 +866,7 @@ pub fn simulate(
             t,
             f_k_true: -s.k.dot(&cs.wrench.lin),
             f_norm: cs.wrench.lin.norm(),
-            f_k_id: s.k.dot(&f_imp_est),
+            f_k_id_error: s.k.dot(&(f_imp_est + f_env_true_prev)),
             in_contact: cs.in_contact(),
             m_ez_error: (id.m_ez - m_ez_true_prev).amax(),
             deviation: deviation.norm(),
@@ -925,6 +928,7 @@ pub fn simulate(
             truth_prev = truth_of(&state, acc, g, &plant.system.current);
         }
         m_ez_true_prev = m_ez_true;
+        f_env_true_prev = cs.wrench.lin;
         // The trajectory's clock: it waits at the end of a dwell until the force has settled.
         let next = clock + dt;
         let leaving_dwell = s.phase == Phase::Dwell

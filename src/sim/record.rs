@@ -8,7 +8,8 @@
 //! `mez1_true..` and `mez1_id..` (external joint moments: true `J_vᵀ F_imp`, and identified
 //! `M_dz − M_wz`, N·m), `fex_true, fey_true, fez_true` and `fex_id..` (the surface's force on
 //! the tool `ᴳF_e` in the tool frame `G`, true and identified, N), `fk_true_n`, `fk_id_n` (the
-//! tool's force along `k`), `f_set_n`, `offset_m` (the FCU's `x̃`), `tool_x_m..` (tool tip),
+//! tool's force along `k`; the true values of these three pairs are the previous control
+//! period's, the one whose sensor readings the identification was made of), `f_set_n`, `offset_m` (the FCU's `x̃`), `tool_x_m..` (tool tip),
 //! `e_x_m, e_y_m, e_z_m, e_m` (tool tip minus where the control system wants it, `P* + ΔP*`),
 //! `r_x_m, r_y_m, r_z_m, r_m` (vehicle minus its stabilisation point), `phi_rad, theta_rad,
 //! psi_rad` (the vehicle's attitude relative to its stabilisation attitude, roll–pitch–yaw),
@@ -159,8 +160,9 @@ pub struct Observation {
     pub t: f64,
     /// True force along `k`, N.
     pub f_k_true: f64,
-    /// Identified force along `k`, N.
-    pub f_k_id: f64,
+    /// The identified force along `k` minus the true one at the instant the identification
+    /// refers to (the previous control period, whose sensor readings it is made of), N.
+    pub f_k_id_error: f64,
     /// Magnitude of the true contact force, N.
     pub f_norm: f64,
     /// In contact.
@@ -321,7 +323,7 @@ impl Recorder {
                 self.settled.1 += e * e;
                 self.settled.2 += 1;
                 self.settled.3 = self.settled.3.min(o.f_k_true);
-                self.force_id_error = self.force_id_error.max((o.f_k_id - o.f_k_true).abs());
+                self.force_id_error = self.force_id_error.max(o.f_k_id_error.abs());
             }
         }
         self.force_max = self.force_max.max(o.f_k_true);
@@ -659,7 +661,7 @@ mod tests {
             },
             t,
             f_k_true: 0.0,
-            f_k_id: 0.0,
+            f_k_id_error: 0.0,
             f_norm: 0.0,
             in_contact,
             m_ez_error,
