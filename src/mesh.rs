@@ -67,6 +67,22 @@ impl TriangleMesh {
         (b - a).cross(&(c - a)).try_normalize(1e-300)
     }
 
+    /// The mesh without its degenerate triangles (those without a normal,
+    /// [`Self::triangle_normal`]; a triangle with an index out of range is kept for the
+    /// caller's check to name).
+    pub fn without_degenerate(&self) -> TriangleMesh {
+        let n = self.vertices.len();
+        TriangleMesh {
+            vertices: self.vertices.clone(),
+            triangles: (0..self.triangles.len())
+                .filter(|&t| {
+                    self.triangles[t].iter().any(|&i| i as usize >= n) || self.triangle_normal(t).is_some()
+                })
+                .map(|t| self.triangles[t])
+                .collect(),
+        }
+    }
+
     /// The mesh with every vertex mapped by `pose`.
     pub fn transformed(&self, pose: &Isometry3<f64>) -> TriangleMesh {
         TriangleMesh {

@@ -682,6 +682,12 @@ impl UvmsModel {
             if l.torque_limit <= 0.0 {
                 return Err(bad(&field("torque_limit"), "must be > 0"));
             }
+            if l.gear_ratio == 0.0 {
+                return Err(bad(
+                    &field("gear_ratio"),
+                    "must not be 0 (motor turns per joint turn: 1 for a direct drive, negative for a reversed motor)",
+                ));
+            }
             check_inertia(&matrix3(&l.inertia)).map_err(|why| bad(&field("inertia"), why))?;
             let [lo, hi] = l.joint_limits;
             if !(lo.is_finite() && hi.is_finite() && lo < hi) {
@@ -829,6 +835,14 @@ mod tests {
         let msg = m.validate("m.toml").unwrap_err().to_string();
         assert!(
             msg.contains("m.toml: arm.links[2].motor_inertia: must be >= 0"),
+            "{msg}"
+        );
+        // A drive without gearing would lose its rotor's inertia and friction unnoticed.
+        let mut m = UvmsModel::default();
+        m.arm.links[0].gear_ratio = 0.0;
+        let msg = m.validate("m.toml").unwrap_err().to_string();
+        assert!(
+            msg.contains("m.toml: arm.links[1].gear_ratio: must not be 0"),
             "{msg}"
         );
         let mut m = UvmsModel::default();

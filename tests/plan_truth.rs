@@ -468,6 +468,14 @@ fn clear_errors() {
         set(&mut cfg);
         assert_eq!(plan(&scene.input(), &cfg).unwrap_err().exit_code(), 2);
     }
+    // Both of a count's factors are named: the step is as likely the mistake as the extent.
+    let mut cfg = PlanConfig::default();
+    (cfg.ring.width_m, cfg.ring.spacing_m) = (0.1, 1e-9);
+    let e = plan(&scene.input(), &cfg).unwrap_err().to_string();
+    assert!(
+        e.starts_with("ring.width_m: at a spacing_m of 1e-9 m would need"),
+        "{e}"
+    );
     // A value that is no number, named by its own key (they were named together as "pattern").
     for (set, key) in [
         (

@@ -604,11 +604,11 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         ),
         (
             "[sim.scenario]\ncurrent_m_s = [1e300, 0.0, 0.0]",
-            "variant.toml: sim.scenario.current_m_s: must be finite and at most 10 m/s fast (no sea current is faster), got 1e300 m/s",
+            "variant.toml: sim.scenario.current_m_s: must be finite and at most 5 m/s fast (no sea current is faster), got 1e300 m/s",
         ),
         (
             "[sim.scenario]\ncurrent_variation_m_s = [3.0, 0.0, 0.0]",
-            "variant.toml: sim.scenario.current_variation_m_s (its mean and four standard deviations): must be finite and at most 10 m/s fast",
+            "variant.toml: sim.scenario.current_variation_m_s (its mean and four standard deviations): must be finite and at most 5 m/s fast",
         ),
         (
             "[sim.scenario]\ncurrent_correlation_s = 0.0",

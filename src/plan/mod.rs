@@ -103,7 +103,15 @@ impl PlanConfig {
     pub fn validate(&self) -> Result<()> {
         patterns::validate(&self.ring, &self.raster, &self.line, &self.polyline)?;
         self.projection.validate()?;
-        project::bounded_count("line.length_m", self.line.length_m, self.projection.step_m, "")?;
+        project::bounded_count(
+            "line.length_m",
+            self.line.length_m,
+            self.projection.step_m,
+            &format!(
+                "at a projection.step_m of {} m ",
+                crate::config::shown(self.projection.step_m)
+            ),
+        )?;
         self.tool.validate()?;
         self.timing.validate()?;
         self.frames.validate()?;

@@ -31,7 +31,7 @@ use super::project::{
     project_all,
 };
 use super::{ObjectAxes, ObjectInput, PlanInput, perpendicular};
-use crate::config::{non_negative, positive, require, shown_to};
+use crate::config::{non_negative, positive, require, shown, shown_to};
 use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
@@ -253,8 +253,19 @@ pub fn validate(
     ] {
         positive(what, v)?;
     }
-    bounded_count("ring.width_m", ring.width_m, ring.spacing_m, "")?;
-    bounded_count("raster.height_m", raster.height_m, raster.spacing_m, "")?;
+    let at = |key: &str, step: f64| format!("at a {key} of {} m ", shown(step));
+    bounded_count(
+        "ring.width_m",
+        ring.width_m,
+        ring.spacing_m,
+        &at("spacing_m", ring.spacing_m),
+    )?;
+    bounded_count(
+        "raster.height_m",
+        raster.height_m,
+        raster.spacing_m,
+        &at("spacing_m", raster.spacing_m),
+    )?;
     if !(ring.arc_deg.is_finite() && (0.0..=360.0).contains(&ring.arc_deg)) {
         return Err(Error::input("ring.arc_deg", "must be between 0 and 360"));
     }

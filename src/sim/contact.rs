@@ -373,7 +373,9 @@ impl Contact {
     /// or a footprint too small for the mesh's size.
     pub fn new(mesh: &TriangleMesh, cfg: &ContactConfig) -> Result<Self> {
         cfg.validate()?;
-        let surface = Surface::new(mesh)?;
+        // A triangle without area has no side to push from, and its edges would hide an open
+        // mesh's rim.
+        let surface = Surface::new(&mesh.without_degenerate())?;
         let footprint = if cfg.footprint_radius_m > 0.0 {
             Some(Footprint::new(&surface, cfg.footprint_radius_m)?)
         } else {
@@ -514,10 +516,20 @@ mod tests {
     /// there, no force (counted inside by the side of the triangle alone, 1 m below and 0.5 m
     /// out was a 1.1 m penetration, 11 kN; a simulation whose surface lay off the trajectory ran
     /// away at its first step). Under the floor, just inside its rim and at its corner, it
-    /// pushes as usual.
+    /// pushes as usual. The same with a triangle without area on every edge (a mesh writer's
+    /// slivers), which would hide the rim.
     #[test]
     fn beyond_an_open_meshs_rim_is_outside() {
-        let mut c = Contact::new(&floor(), &ContactConfig::default()).unwrap();
+        let mut slivers = floor();
+        for [a, b, c] in floor().triangles {
+            slivers.triangles.extend([[a, a, b], [b, b, c], [c, c, a]]);
+        }
+        for mesh in [floor(), slivers] {
+            beyond_the_rim(&mut Contact::new(&mesh, &ContactConfig::default()).unwrap());
+        }
+    }
+
+    fn beyond_the_rim(c: &mut Contact) {
         for tip in [
             Point3::new(1.5, 0.0, 1.0),
             Point3::new(1.002, 0.0, 0.006),

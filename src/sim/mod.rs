@@ -980,7 +980,7 @@ pub fn simulate(
 }
 
 /// The fastest sea current a configuration may set, m/s.
-const MAX_CURRENT_M_S: f64 = 10.0;
+const MAX_CURRENT_M_S: f64 = 5.0;
 
 /// Checks the sea current `current` (m/s) of the configuration's `key`.
 ///
