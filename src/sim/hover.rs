@@ -823,7 +823,7 @@ mod tests {
             "{h:?} against {still:?}"
         );
         let torrent = HoverConfig {
-            current_m_s: [0.0, 9.0, 0.0],
+            current_m_s: [0.0, 4.5, 0.0],
             ..cfg
         };
         let e = choose(&mb, &thrusters(), &traj, &torrent).unwrap_err();
