@@ -94,24 +94,6 @@ pub enum StaticCharacteristic {
     Quadratic,
 }
 
-impl StaticCharacteristic {
-    /// The thrust ratio `T/T_max` of the rotor state `s`.
-    pub fn thrust_ratio(self, s: f64) -> f64 {
-        match self {
-            StaticCharacteristic::Linear => s,
-            StaticCharacteristic::Quadratic => s * s.abs(),
-        }
-    }
-
-    /// The rotor state that gives the thrust ratio `u` (the inverse of [`Self::thrust_ratio`]).
-    pub fn rotor_state(self, u: f64) -> f64 {
-        match self {
-            StaticCharacteristic::Linear => u,
-            StaticCharacteristic::Quadratic => u.signum() * u.abs().sqrt(),
-        }
-    }
-}
-
 /// One thruster, in `C`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

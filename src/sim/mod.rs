@@ -538,10 +538,8 @@ pub fn simulate(
     let (ctrl_model, ctrl) = controllers_model(cfg, &plant_model)?;
     let arm = &ctrl.arm;
     let g = ctrl_model.environment.gravity;
-    // The controllers' model of the thrusters: their allocation, and their rotors as the
-    // commands sent have moved them.
-    let mut thrusters = Thrusters::new(&ctrl_model.thrusters)?;
-    let hover = hover::choose(&ctrl, &thrusters, trajectory, &cfg.hover)?;
+    let allocator = Thrusters::new(&ctrl_model.thrusters)?;
+    let hover = hover::choose(&ctrl, &allocator, trajectory, &cfg.hover)?;
     let h = hover.t_world_body;
     let mut plant = Plant::new(&plant_model, State::at_rest(h, hover.q_start), cfg.integrator)?;
     let sc = &cfg.scenario;
@@ -559,7 +557,9 @@ pub fn simulate(
     let mut fcu = Fcu::new(&cfg.force);
     let mut icu = Icu::new(&cfg.icu, &cfg.sensors, dt).on_vehicle(&ctrl);
     let mut joints = JointControl::new(&cfg.joints, &hover.q_start);
-    let mut vc = VehicleControl::new(&cfg.vehicle, &h);
+    let units = &ctrl_model.thrusters.units;
+    let thruster_lag = units.iter().map(|u| u.time_constant).sum::<f64>() / units.len().max(1) as f64;
+    let mut vc = VehicleControl::new(&cfg.vehicle, &h, thruster_lag);
     let mut nav = Navigation::new(&cfg.navigation, &cfg.sensors, h.translation.vector, g);
     // A water track, if the vehicle has one, pinged while the station was held: the flow past
     // the vehicle at rest is the current.
@@ -598,9 +598,7 @@ pub fn simulate(
     let mut unheld: Option<Vector6<f64>> = None;
     for _ in 0..HOLD_ITERATIONS {
         let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
-        let left = held
-            - vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0)
-                .wrench;
+        let left = held - vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0);
         let trimmed = unheld.is_some_and(|u| (left - u).norm() < HOLD_TOLERANCE_N);
         unheld = Some(left);
         trim += left * relax;
@@ -652,9 +650,7 @@ pub fn simulate(
             ),
         ));
     }
-    let held_thrusts = thrusters.allocate(&held).thrusts;
-    plant.thrusters.hold(&held_thrusts)?;
-    thrusters.hold(&held_thrusts)?;
+    plant.thrusters.hold(&allocator.allocate(&held).thrusts)?;
     let first_eval = plant.system.accelerations(
         &plant.state,
         &Inputs {
@@ -828,13 +824,11 @@ pub fn simulate(
             Force::ZERO
         };
         vc.learn_current(!icu.touched());
-        let demand = vc.wrench(&meas, &nav, &ctrl.vehicle, g, &open, dt);
-        let alloc = thrusters.allocate(&demand.wrench);
+        let tau_vehicle = vc.wrench(&meas, &nav, &ctrl.vehicle, g, &open, dt);
+        let alloc = allocator.allocate(&tau_vehicle);
         if alloc.scale < 1.0 {
             saturated += 1;
         }
-        let thrust_cmd = thrusters.lead(&alloc.thrusts, &thrusters.allocate(&demand.step).thrusts, dt);
-        thrusters.step(dt, &thrust_cmd)?;
         // The plant: contact against the true surface, then the step, the contact's velocity
         // dependence linearly implicit. The sensors sample the plant at the period's start
         // (`StepReport::sample`), so the true contact force of the period (logged, and the
@@ -898,7 +892,7 @@ pub fn simulate(
             };
             let input = PlantInput {
                 tau_drive: tau,
-                thrust_cmd: &thrust_cmd,
+                thrust_cmd: &alloc.thrusts,
                 f_env_on_tool: contact_now.wrench,
             };
             let report = plant

@@ -14,11 +14,7 @@
 //!   the vehicle to take a fast change of the manipulator's action alone: when the soil's force
 //!   on the sampler turned by 126 N within 0.4 s at the drag's start, the vehicle turned by
 //!   40 mrad and drifted 23 mm. The open loop therefore passes the lag's inverse behind a short
-//!   low-pass (`open_loop_lag_s`), so the thrust follows it with that lag instead. The inverse
-//!   is taken in the rotor's state, which is what lags
-//!   ([`crate::vehicle::thrusters::Thrusters::lead`]): taken on the thrust, it under-delivered
-//!   from rest (a 20 N step 2.8 N after 50 ms instead of 12.6) and overshot by up to 9 N while a
-//!   thruster's thrust changed sign.
+//!   low-pass (`open_loop_lag_s`), so the thrust follows it with that lag instead.
 //!
 //! The wrench is then allocated to the thrusters ([`crate::vehicle::thrusters::Thrusters::allocate`]).
 //!
@@ -91,7 +87,7 @@ impl Default for VehicleControlConfig {
             attitude_kp: 600.0,
             attitude_ki: 60.0,
             attitude_kd: 300.0,
-            open_loop_lag_s: 0.03,
+            open_loop_lag_s: 0.05,
             current_filter_s: 5.0,
             water_track_filter_s: 0.1,
             water_track_rate_filter_s: 0.3,
@@ -121,23 +117,14 @@ impl VehicleControlConfig {
     }
 }
 
-/// What the stabilisation asks of the thrusters over a period (`C` axes, about its origin).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Demand {
-    /// The wrench to command: the closed loop, the restoring wrench's cancellation and the
-    /// open loop as its low-pass has it now.
-    pub wrench: Vector6<f64>,
-    /// The open loop's low-pass's step over the period, which the thrusters are to deliver in
-    /// full, past their lag.
-    pub step: Vector6<f64>,
-}
-
 /// The stabilisation system with its integrators and velocity estimate.
 #[derive(Debug, Clone)]
 pub struct VehicleControl {
     cfg: VehicleControlConfig,
     hover: Isometry3<f64>,
     integral: Vector6<f64>,
+    /// The thrusters' time constant (the controller's model), s.
+    thruster_lag_s: f64,
     /// The open loop's low-pass (none before the first period).
     open_loop_low_pass: Option<Vector6<f64>>,
     /// The closed loop's linear thrust, low-passed (`C` axes), N.
@@ -155,11 +142,14 @@ pub struct VehicleControl {
 impl VehicleControl {
     /// Holding the stabilisation pose `hover` (`t_world_body`), which is also the pose the
     /// vision system reported before the run.
-    pub fn new(cfg: &VehicleControlConfig, hover: &Isometry3<f64>) -> Self {
+    /// `thruster_lag_s` is the thrusters' first-order time constant in the controller's model
+    /// (their mean if they differ).
+    pub fn new(cfg: &VehicleControlConfig, hover: &Isometry3<f64>, thruster_lag_s: f64) -> Self {
         VehicleControl {
             cfg: *cfg,
             hover: *hover,
             integral: Vector6::zeros(),
+            thruster_lag_s,
             open_loop_low_pass: None,
             holding: Vector3::zeros(),
             learning: true,
@@ -239,28 +229,31 @@ impl VehicleControl {
         }
     }
 
-    /// The open loop through the low-pass of `open_loop_lag_s`: its output now and its step
-    /// over the next `dt` (none without the low-pass or time).
-    fn low_pass(&mut self, open_loop: &Force, dt: f64) -> (Vector6<f64>, Vector6<f64>) {
-        let x = open_loop.to_vector6();
+    /// The command that makes thrusters of time constant `τ_T` (held over the period) deliver
+    /// `open_loop` through a first-order low-pass of `τ_f = open_loop_lag_s`: the thrust that
+    /// is the low-pass's output `y` now moves to its next value, `y + (x − y) k_f / k_T` with
+    /// `k = 1 − e^(−dt/τ)` (the lag's inverse `1 + τ_T s` after `1/(1 + τ_f s)`, exact for the
+    /// held command).
+    fn lead(&mut self, open_loop: &Force, dt: f64) -> Force {
         let tf = self.cfg.open_loop_lag_s;
-        if tf <= 0.0 || dt <= 0.0 {
-            return (x, Vector6::zeros());
+        // Nothing to compensate for thrusters without lag; nothing to do in no time.
+        let k_t = lag_gain(dt, self.thruster_lag_s);
+        if tf <= 0.0 || self.thruster_lag_s <= 0.0 || k_t <= 0.0 {
+            return *open_loop;
         }
+        let x = open_loop.to_vector6();
         let y = self.open_loop_low_pass.get_or_insert(x);
-        let now = *y;
-        let step = (x - now) * lag_gain(dt, tf);
+        let step = (x - *y) * lag_gain(dt, tf);
+        let command = *y + step / k_t;
         *y += step;
-        (now, step)
+        Force::from_vector6(&command)
     }
 
     /// The body wrench (`C` axes, about `C`'s origin) for the measurements `m` (attitude and
     /// rates) and the navigation's position and velocity `nav`, with
     /// `vehicle` the controller's model of the vehicle body, `g` gravity (m/s²) and
     /// `open_loop` the wrench of eq. (17) to add (already negated: what the thrusters must
-    /// supply to cancel the manipulator's action), over a control period `dt`: the wrench to
-    /// command and the open loop's step over the period, to pass the thrusters' lag
-    /// ([`crate::vehicle::thrusters::Thrusters::lead`]).
+    /// supply to cancel the manipulator's action), over a control period `dt`.
     pub fn wrench(
         &mut self,
         m: &Measurements,
@@ -269,8 +262,8 @@ impl VehicleControl {
         g: f64,
         open_loop: &Force,
         dt: f64,
-    ) -> Demand {
-        let (open_loop, step) = self.low_pass(open_loop, dt);
+    ) -> Vector6<f64> {
+        let open_loop = self.lead(open_loop, dt);
         let c = &self.cfg;
         if let (Some(flow), Some(ping)) = (self.flow.as_mut(), m.water_flow) {
             // The water's velocity over the ground: the flow past the vehicle plus the
@@ -301,9 +294,10 @@ impl VehicleControl {
         let g_body = r.inverse() * Vector3::new(0.0, 0.0, g);
         let restoring = Force::new(g_body * vehicle.net_mass, vehicle.net_first_moment.cross(&g_body));
         let mut tau = Vector6::zeros();
-        tau.fixed_rows_mut::<3>(0).copy_from(&(lin - restoring.lin));
-        tau.fixed_rows_mut::<3>(3).copy_from(&(ang - restoring.ang));
-        tau += open_loop;
+        tau.fixed_rows_mut::<3>(0)
+            .copy_from(&(lin - restoring.lin + open_loop.lin));
+        tau.fixed_rows_mut::<3>(3)
+            .copy_from(&(ang - restoring.ang + open_loop.ang));
         // Cancel the push of the water's acceleration on the hull (the displaced water's and
         // the added mass's), as eq. (17) cancels the arm's, when the water track gives it.
         let rate = self.current_rate();
@@ -312,7 +306,7 @@ impl VehicleControl {
             let held = vehicle.wrench(&Motion::ZERO, &Motion::ZERO, &z, &z, &(r.inverse() * rate));
             tau += held.to_vector6();
         }
-        Demand { wrench: tau, step }
+        tau
     }
 }
 
@@ -336,60 +330,43 @@ mod tests {
         }
     }
 
-    /// A step of the open loop reaches the model's thrusters, both static characteristics,
-    /// through the compensation as the first-order response of `open_loop_lag_s` (to
-    /// round-off) on top of the held thrust; without it, with the rotors' own 0.2 s lag.
+    /// A step of the open loop reaches thrusters of the model's lag through the compensation
+    /// as the first-order response of `open_loop_lag_s` (to round-off); without it, with the
+    /// thrusters' own 0.2 s.
     #[test]
     fn open_loop_thrust_follows_with_the_short_lag() {
-        use crate::model::{StaticCharacteristic, UvmsModel};
-        use crate::vehicle::thrusters::Thrusters;
-        let dt = 1e-3;
-        let held = Vector6::new(40.0, -30.0, 80.0, 0.0, 10.0, 5.0);
-        let step = Force::new(Vector3::new(10.0, 0.0, 0.0), Vector3::new(0.0, 0.0, -3.0));
-        for ch in [StaticCharacteristic::Linear, StaticCharacteristic::Quadratic] {
-            let mut model = UvmsModel::default().thrusters;
-            model.static_characteristic = ch;
-            let wrench_after = |lag_s: f64, t: f64| {
-                let cfg = VehicleControlConfig {
-                    open_loop_lag_s: lag_s,
-                    ..VehicleControlConfig::default()
-                };
-                let mut vc = VehicleControl::new(&cfg, &Isometry3::identity());
-                // The controller's model of the rotors and the plant's, holding the wrench.
-                let mut rotors = Thrusters::new(&model).unwrap();
-                let held_thrusts = rotors.allocate(&held).thrusts;
-                assert!(held_thrusts.iter().all(|t| t.abs() > 10.0), "{held_thrusts:?}");
-                rotors.hold(&held_thrusts).unwrap();
-                let mut plant = rotors.clone();
-                vc.low_pass(&Force::ZERO, dt);
-                // Without a step the command is the held one itself.
-                assert_eq!(rotors.lead(&held_thrusts, &[0.0; 6], dt), held_thrusts);
-                for _ in 0..(t / dt).round() as usize {
-                    let (now, by) = vc.low_pass(&step, dt);
-                    let cmd = rotors.lead(
-                        &rotors.allocate(&(held + now)).thrusts,
-                        &rotors.allocate(&by).thrusts,
-                        dt,
-                    );
-                    rotors.step(dt, &cmd).unwrap();
-                    plant.step(dt, &cmd).unwrap();
-                }
-                plant.wrench().to_vector6() - held
+        let (dt, tau_t) = (1e-3, 0.2);
+        let step = Force::new(Vector3::new(100.0, 0.0, 0.0), Vector3::new(0.0, 0.0, -40.0));
+        let thrust_after = |lag_s: f64, t: f64| {
+            let cfg = VehicleControlConfig {
+                open_loop_lag_s: lag_s,
+                ..VehicleControlConfig::default()
             };
-            let target = step.to_vector6();
-            for t in [0.01, 0.05, 0.2, 0.5] {
-                let expected = target * (1.0 - (-t / 0.05f64).exp());
-                let got = wrench_after(0.05, t);
-                assert!(
-                    (got - expected).amax() < 1e-9 * target.amax(),
-                    "{ch:?} {t}: {got} {expected}"
-                );
+            let mut vc = VehicleControl::new(&cfg, &Isometry3::identity(), tau_t);
+            // At rest before the step, then the thrusters' exact lag with the command held.
+            let mut thrust = vc.lead(&Force::ZERO, dt).to_vector6();
+            let k = lag_gain(dt, tau_t);
+            for _ in 0..(t / dt).round() as usize {
+                let command = vc.lead(&step, dt).to_vector6();
+                thrust += (command - thrust) * k;
             }
-            // Without the compensation the thrust after 50 ms is at most 40 % of the step
-            // (22 % for linear rotors), not 63 %.
-            let plain = wrench_after(0.0, 0.05)[0] / 10.0;
-            assert!(plain < 0.4, "{ch:?}: {plain}");
+            thrust
+        };
+        let target = step.to_vector6();
+        for t in [0.01, 0.05, 0.2, 0.5] {
+            let expected = target * (1.0 - (-t / 0.05f64).exp());
+            let got = thrust_after(0.05, t);
+            assert!(
+                (got - expected).amax() < 1e-9 * target.amax(),
+                "{t}: {got} {expected}"
+            );
         }
+        // Without the compensation the thrust after 50 ms is 22 % of the step, not 63 %.
+        let plain = thrust_after(0.0, 0.05)[0];
+        assert!(
+            (plain - 100.0 * (1.0 - (-0.05f64 / tau_t).exp())).abs() < 1e-9,
+            "{plain}"
+        );
     }
 
     /// The stabilisation's parts, each against the physics it answers: at the station, at
@@ -419,8 +396,8 @@ mod tests {
         let thrust = |position: Vector3<f64>, velocity: Vector3<f64>| {
             let mut nav = Navigation::new(&Default::default(), &Default::default(), position, g);
             nav.velocity = velocity;
-            let mut vc = VehicleControl::new(&cfg, &hover);
-            vc.wrench(&m, &nav, &vehicle, g, &open_loop, 1e-3).wrench
+            let mut vc = VehicleControl::new(&cfg, &hover, 0.2);
+            vc.wrench(&m, &nav, &vehicle, g, &open_loop, 1e-3)
         };
         let at_station = thrust(hover.translation.vector, Vector3::zeros());
         let g_body = attitude.inverse() * Vector3::new(0.0, 0.0, g);
@@ -477,7 +454,7 @@ mod tests {
         holding.fixed_rows_mut::<3>(0).copy_from(&-drag.lin);
         let hover = Isometry3::from_parts(Vector3::zeros().into(), attitude);
         let trimmed = |cfg: &VehicleControlConfig| {
-            let mut vc = VehicleControl::new(cfg, &hover);
+            let mut vc = VehicleControl::new(cfg, &hover, 0.2);
             assert_eq!(vc.current(&vehicle, &attitude), Vector3::zeros());
             vc.trim(&holding);
             vc
@@ -530,7 +507,7 @@ mod tests {
         let (vehicle, attitude) = vehicle_turned();
         let hover = Isometry3::from_parts(Vector3::zeros().into(), attitude);
         let cfg = VehicleControlConfig::default();
-        let mut vc = VehicleControl::new(&cfg, &hover);
+        let mut vc = VehicleControl::new(&cfg, &hover, 0.2);
         let current = Vector3::new(0.3, -0.2, 0.05);
         vc.settle_water_track(Some(attitude.inverse() * current), &attitude);
         assert!((vc.current(&vehicle, &attitude) - current).norm() < 1e-12);
@@ -569,7 +546,7 @@ mod tests {
         let nav = Navigation::new(&Default::default(), &Default::default(), Vector3::zeros(), 9.81);
         let (start, slope) = (Vector3::new(0.1, 0.0, 0.0), Vector3::new(0.02, -0.03, 0.005));
         let ramp = |cfg: &VehicleControlConfig, track: bool| {
-            let mut vc = VehicleControl::new(cfg, &hover);
+            let mut vc = VehicleControl::new(cfg, &hover, 0.2);
             vc.settle_water_track(track.then(|| attitude.inverse() * start), &attitude);
             let mut m = read_at_rest(attitude, Vector3::zeros(), 9.81);
             let dt = 1e-3;
@@ -577,7 +554,7 @@ mod tests {
             for k in 0..5000 {
                 let water = start + slope * (k as f64 * dt);
                 m.water_flow = track.then(|| attitude.inverse() * water);
-                tau = vc.wrench(&m, &nav, &vehicle, 9.81, &Force::ZERO, dt).wrench;
+                tau = vc.wrench(&m, &nav, &vehicle, 9.81, &Force::ZERO, dt);
             }
             (vc.current_rate(), tau)
         };

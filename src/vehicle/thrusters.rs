@@ -172,37 +172,21 @@ impl Thrusters {
             return Err(Error::input("thrust command", "not finite"));
         }
         for (j, c) in cmd.iter().enumerate() {
-            let ch = self.characteristic;
-            let s_cmd = ch.rotor_state((c / self.max_thrust[j]).clamp(-1.0, 1.0));
-            self.state[j] += lag_gain(dt, self.time_constant[j]) * (s_cmd - self.state[j]);
-            self.thrust[j] = self.max_thrust[j] * ch.thrust_ratio(self.state[j]);
+            let u = (c / self.max_thrust[j]).clamp(-1.0, 1.0);
+            let s_cmd = match self.characteristic {
+                StaticCharacteristic::Linear => u,
+                StaticCharacteristic::Quadratic => u.signum() * u.abs().sqrt(),
+            };
+            let k = lag_gain(dt, self.time_constant[j]);
+            self.state[j] += k * (s_cmd - self.state[j]);
+            let s = self.state[j];
+            self.thrust[j] = self.max_thrust[j]
+                * match self.characteristic {
+                    StaticCharacteristic::Linear => s,
+                    StaticCharacteristic::Quadratic => s * s.abs(),
+                };
         }
         Ok(())
-    }
-
-    /// The thrust commands, for rotors in the states these thrusters hold, that deliver over
-    /// the next `dt` (s) what the held commands `held` (N) would plus the thrust `step` (N)
-    /// on top: the rotor state `s` that the held command would reach, `s_h`, the thrust
-    /// `T_next = T_max φ(s_h) + step` and its state `s_next = φ⁻¹(T_next/T_max)`, reached by
-    /// the command `s + (s_next − s)/k` (`k = 1 − e^(−dt/τ_T)`, `φ` the static
-    /// characteristic), within the rotor's limits. Without a step that is the held command
-    /// itself; with one it is the lag's inverse on the step alone, in the rotor's state, where
-    /// a propeller near standstill needs a large change of speed for a small thrust.
-    pub fn lead(&self, held: &[f64], step: &[f64], dt: f64) -> Vec<f64> {
-        let ch = self.characteristic;
-        (0..self.len())
-            .map(|j| {
-                let (t_max, s) = (self.max_thrust[j], self.state[j]);
-                let k = lag_gain(dt, self.time_constant[j]);
-                if k <= 0.0 || step[j] == 0.0 {
-                    return held[j];
-                }
-                let s_held = s + k * (ch.rotor_state((held[j] / t_max).clamp(-1.0, 1.0)) - s);
-                let next = ch.thrust_ratio(s_held) + step[j] / t_max;
-                let s_next = ch.rotor_state(next.clamp(-1.0, 1.0));
-                t_max * ch.thrust_ratio((s + (s_next - s) / k).clamp(-1.0, 1.0))
-            })
-            .collect()
     }
 
     /// Sets every rotor to the steady state of the commands `cmd` (N): thrusters that have
