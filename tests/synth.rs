@@ -390,6 +390,20 @@ fn a_reference_file_replaces_the_generated_bottle() {
     let e = synthesize(&from_file).unwrap_err();
     assert_eq!(e.exit_code(), 2);
     assert!(e.to_string().contains("object.reference"), "{e}");
+    // A mesh without area (every point on a line) is named as such, not as too shallow a model
+    // for the burial.
+    let flat = uvms::mesh::TriangleMesh {
+        vertices: (0..4)
+            .map(|i| nalgebra::Point3::new(0.1 * i as f64, 0.0, 0.0))
+            .collect(),
+        triangles: vec![[0, 1, 2], [1, 2, 3]],
+    };
+    let out = uvms::output::OutDir::create(dir.path(), &[], &["flat.ply"]).unwrap();
+    out.write_with("flat.ply", |w| uvms::io::ply::write_mesh(w, &flat))
+        .unwrap();
+    from_file.object.reference = Some(dir.path().join("flat.ply"));
+    let e = synthesize(&from_file).unwrap_err().to_string();
+    assert!(e.ends_with("flat.ply: the mesh has no surface area"), "{e}");
 }
 
 /// The files under `data/` are what the commands in `data/README.md` make, byte for byte.

@@ -8,6 +8,7 @@ pub mod knn;
 pub mod normals;
 pub mod pca;
 
+use crate::error::{Error, Result};
 use nalgebra::{Point3, Vector3};
 
 /// A point cloud: positions with optional per-point colours and normals.
@@ -61,6 +62,27 @@ impl PointCloud {
     /// Axis-aligned bounding box `(min, max)`, or `None` for an empty cloud.
     pub fn bbox(&self) -> Option<(Point3<f64>, Point3<f64>)> {
         bbox(&self.points)
+    }
+}
+
+/// The diagonal of an object model's bounding box, m: a model between 1 cm and 20 m across is
+/// an object a tool can work on; outside, the file's units are most likely not metres.
+///
+/// # Errors
+/// [`Error::Input`] naming `what` when the model has no points or is outside that span.
+pub fn object_size(what: &str, points: &[Point3<f64>]) -> Result<f64> {
+    let (lo, hi) = bbox(points).ok_or_else(|| Error::input(what, "the model has no points"))?;
+    let size = (hi - lo).norm();
+    if (0.01..=20.0).contains(&size) {
+        Ok(size)
+    } else {
+        Err(Error::input(
+            what,
+            format!(
+                "the model is {} m across; expected 0.01 m to 20 m (units must be metres)",
+                crate::config::shown_to(size, 3)
+            ),
+        ))
     }
 }
 

@@ -93,6 +93,7 @@ impl ReferenceModel {
         mesh: Option<TriangleMesh>,
         what: &str,
     ) -> Result<Self> {
+        crate::cloud::object_size(what, &points)?;
         let index = KdIndex::new(&points).map_err(|e| Error::input(what, e))?;
         let shape = principal_axes(&points, 0.01).ok_or_else(|| Error::input(what, "no points"))?;
         let spacing_m = crate::triangulate::median_spacing(&points, &index);
@@ -672,7 +673,20 @@ pub(crate) mod tests {
                 "register.mesh_samples",
             );
         }
-        let m = ReferenceModel::from_mesh(mesh, 1000, 1, "model.ply").unwrap();
+        let m = ReferenceModel::from_mesh(mesh.clone(), 1000, 1, "model.ply").unwrap();
         assert_eq!(m.points.len(), 1000);
+        // The same shape in micrometres or kilometres is bad input naming the file (the one a
+        // kilometre across was "no cluster fits", the other "converged").
+        for scale in [1e-6, 1e4] {
+            let scaled = TriangleMesh {
+                vertices: mesh.vertices.iter().map(|v| v * scale).collect(),
+                triangles: mesh.triangles.clone(),
+            };
+            let Err(e) = ReferenceModel::from_mesh(scaled, 1000, 1, "model.ply") else {
+                panic!("a model {scale} times the size was accepted");
+            };
+            assert_eq!(e.exit_code(), 2);
+            assert!(e.to_string().contains("model.ply: the model is"), "{e}");
+        }
     }
 }

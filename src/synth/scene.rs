@@ -248,7 +248,7 @@ fn crop_to_view(mesh: &TriangleMesh, cfg: &SynthConfig, t_scan_world: &Pose) -> 
 /// The reference model: the configured PLY file, or the generated bottle.
 ///
 /// # Errors
-/// [`Error::Input`] if the file cannot be read, has no triangles, is not sized like an object
+/// [`Error::Input`] if the file cannot be read, has no triangles or no area, is not sized like an object
 /// (0.01 m to 20 m across), or would be buried past 90 % of its height.
 pub fn reference_mesh(cfg: &SynthConfig) -> Result<TriangleMesh> {
     let o = &cfg.object;
@@ -260,15 +260,11 @@ pub fn reference_mesh(cfg: &SynthConfig) -> Result<TriangleMesh> {
     if mesh.triangles.is_empty() {
         return Err(Error::input(what, "the mesh has no triangles"));
     }
-    let (lo, hi) =
-        crate::cloud::bbox(&mesh.vertices).ok_or_else(|| Error::input(&what, "the mesh has no vertices"))?;
-    let size = (hi - lo).norm();
-    if !(0.01..=20.0).contains(&size) {
-        return Err(Error::input(
-            what,
-            format!("the model is {size:.3} m across; expected 0.01 m to 20 m (units must be metres)"),
-        ));
+    if mesh.area() <= 0.0 {
+        return Err(Error::input(what, "the mesh has no surface area"));
     }
+    crate::cloud::object_size(&what, &mesh.vertices)?;
+    let (lo, hi) = crate::cloud::bbox(&mesh.vertices).unwrap_or_default();
     if o.burial_m >= 0.9 * (hi.z - lo.z) {
         return Err(Error::input(
             "config object.burial_m",
