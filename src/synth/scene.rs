@@ -248,8 +248,8 @@ fn crop_to_view(mesh: &TriangleMesh, cfg: &SynthConfig, t_scan_world: &Pose) -> 
 /// The reference model: the configured PLY file, or the generated bottle.
 ///
 /// # Errors
-/// [`Error::Input`] if the file cannot be read, has no triangles or no area, is not sized like an object
-/// (0.01 m to 20 m across), or would be buried past 90 % of its height.
+/// [`Error::Input`] if the file cannot be read, has no triangles or no area, is not sized like
+/// an object ([`crate::cloud::object_size`]), or would be buried past 90 % of its height.
 pub fn reference_mesh(cfg: &SynthConfig) -> Result<TriangleMesh> {
     let o = &cfg.object;
     let Some(path) = &o.reference else {
