@@ -1456,6 +1456,33 @@ fn unreachable_targets_fail_the_run() {
     );
 }
 
+/// A tool that strays past `sim.max_tool_deviation_m` from where the control system wants it
+/// is a failed run, named by the key (soil seed 2 without eq. (17) struck the sediment 0.2 m
+/// off its target in the approach and ended with exit 0). The bottle's run, ‖e‖ 2.3 mm, holds
+/// the default 5 cm; a bound of 1 mm fails it.
+#[test]
+fn a_tool_off_its_target_fails_the_run() {
+    let text = pipeline_text("bottle_cleaning");
+    assert!(text.contains("[sim]\n"));
+    let tight = side_by_side(1, |d, _| {
+        let p = d.join("variant.toml");
+        std::fs::write(
+            &p,
+            text.replacen("[sim]\n", "[sim]\nmax_tool_deviation_m = 0.001\n", 1),
+        )
+        .unwrap();
+        p
+    });
+    let failure = tight[0]["failure"].as_str().unwrap_or_default();
+    assert!(
+        failure.starts_with("sim: the tool strayed")
+            && failure.contains("past sim.max_tool_deviation_m = 0.001 m"),
+        "{}",
+        tight[0]
+    );
+    assert!(bottle_run().1["sim"]["failure"].is_null());
+}
+
 /// A force asked for and not held is a failed contact operation: on a surface ten times softer
 /// than planned for (k = 1e3 N/m) the force loop's offset reaches its 5 cm limit at 50 N, and
 /// the dwell waits its 10 s for a force that never settles (tried: settled at 49.3 N, exit 0

@@ -296,7 +296,8 @@ pub fn sim_stage(
     }
     let mut summary = serde_json::to_value(&run.summary).map_err(|e| Error::failed("summary", e))?;
     let failure = operation_failure(trajectory, run.contact_depth_m, &run.summary, cfg)
-        .or_else(|| unreachable_failure(&run.summary, cfg));
+        .or_else(|| unreachable_failure(&run.summary, cfg))
+        .or_else(|| deviation_failure(&run.summary, cfg));
     if let (Some(e), Some(map)) = (&failure, summary.as_object_mut()) {
         // The summary says it too: a script reading it sees the failure, not just figures.
         map.insert("failure".into(), e.to_string().into());
@@ -431,6 +432,25 @@ fn unreachable_failure(summary: &SimSummary, cfg: &SimConfig) -> Option<Error> {
                 "the arm could not reach {n} of the tool's targets ({:.3} s of the run; its set-points held): the path was not followed (the products are written; ‖e‖ up to {:.1} mm, the thrusters saturated in {:.1} % of the control periods)",
                 n as f64 / cfg.control_rate_hz,
                 1e3 * summary.figures.tool_deviation_max_m,
+                100.0 * summary.thrust_saturated_fraction
+            ),
+        )
+    })
+}
+
+/// A failed run when the tool strayed past `sim.max_tool_deviation_m` from where the control
+/// system wanted it: wherever it pressed or passed then, it was not on the planned path.
+fn deviation_failure(summary: &SimSummary, cfg: &SimConfig) -> Option<Error> {
+    let e = summary.figures.tool_deviation_max_m;
+    // (Not finite: the run would have stopped as diverged.)
+    (e > cfg.max_tool_deviation_m).then(|| {
+        Error::failed(
+            "sim",
+            format!(
+                "the tool strayed {:.1} mm from where the control system wanted it, past sim.max_tool_deviation_m = {} m: the path was not followed (the products are written; ‖r‖ up to {:.1} mm, the thrusters saturated in {:.1} % of the control periods)",
+                1e3 * e,
+                crate::config::shown(cfg.max_tool_deviation_m),
+                1e3 * summary.figures.auv_deviation_max_m,
                 100.0 * summary.thrust_saturated_fraction
             ),
         )

@@ -298,6 +298,9 @@ pub struct SimConfig {
     /// `force_settled_mean_n` and `force_rms_error_n`), and this long after the path starts
     /// the window of `force_overshoot_n` ends, s.
     pub settle_time_s: f64,
+    /// A run whose tool strays farther than this from where the control system wants it
+    /// (`‖e‖`, at any period) failed: the tool was not where the operation needed it, m.
+    pub max_tool_deviation_m: f64,
     /// Contact model.
     pub contact: ContactConfig,
     /// NS: the sensors.
@@ -336,6 +339,7 @@ impl Default for SimConfig {
             log_rate_hz: 100.0,
             tail_s: 0.5,
             settle_time_s: 1.5,
+            max_tool_deviation_m: 0.05,
             contact: ContactConfig::default(),
             sensors: SensorConfig::default(),
             navigation: NavigationConfig::default(),
@@ -421,6 +425,7 @@ impl SimConfig {
             )?;
         }
         non_negative("sim.settle_time_s", self.settle_time_s)?;
+        positive("sim.max_tool_deviation_m", self.max_tool_deviation_m)?;
         check_current("sim.scenario.current_m_s", self.scenario.current_m_s)?;
         self.scenario.check_variation()?;
         // The plant holds the water's rate over a control period: a lag shorter than the
