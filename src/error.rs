@@ -66,6 +66,19 @@ impl Error {
         }
     }
 
+    /// A bad-input error about `what` (as named by code that cannot name it better) said of
+    /// `name` instead. Other errors are unchanged.
+    #[must_use]
+    pub fn renamed(self, what: &str, name: impl Display) -> Self {
+        match self {
+            Error::Input { what: w, reason } if w == what => Error::Input {
+                what: name.to_string(),
+                reason,
+            },
+            other => other,
+        }
+    }
+
     /// The process exit code the command line uses for this error: 2 for bad input, 1 for a
     /// failed run.
     pub fn exit_code(&self) -> i32 {

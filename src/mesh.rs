@@ -83,6 +83,21 @@ impl TriangleMesh {
         }
     }
 
+    /// How many triangles repeat an earlier one: the same three corners (by position, in any
+    /// order or winding), as a two-sided surface or a face written twice has them. Triangle
+    /// indices must be in range.
+    pub fn repeated_triangles(&self) -> usize {
+        let mut seen = std::collections::HashSet::with_capacity(self.triangles.len());
+        self.triangles
+            .iter()
+            .filter(|t| {
+                let mut corners = t.map(|i| self.vertices[i as usize].coords.map(|c| (c + 0.0).to_bits()));
+                corners.sort_unstable_by_key(|c| (c.x, c.y, c.z));
+                !seen.insert(corners)
+            })
+            .count()
+    }
+
     /// The mesh with every vertex mapped by `pose`.
     pub fn transformed(&self, pose: &Isometry3<f64>) -> TriangleMesh {
         TriangleMesh {
@@ -194,5 +209,25 @@ mod tests {
         for n in g.vertex_normals() {
             assert!(n.z < -0.99, "{n}");
         }
+    }
+
+    /// A grid holds no repeated triangle; the same grid with its triangles again, turned
+    /// round, or on vertices of their own at the same places, holds every one twice.
+    #[test]
+    fn a_two_sided_surface_repeats_its_triangles() {
+        let g = TriangleMesh::grid(3, 2.0, |_, _| 0.0);
+        assert_eq!(g.repeated_triangles(), 0);
+        let mut turned = g.clone();
+        turned
+            .triangles
+            .extend(g.triangles.iter().map(|&[a, b, c]| [c, b, a]));
+        assert_eq!(turned.repeated_triangles(), 8);
+        let mut copied = g.clone();
+        let n = g.vertices.len() as u32;
+        copied.vertices.extend(g.vertices.iter().copied());
+        copied
+            .triangles
+            .extend(g.triangles.iter().map(|&[a, b, c]| [b + n, a + n, c + n]));
+        assert_eq!(copied.repeated_triangles(), 8);
     }
 }

@@ -798,6 +798,12 @@ fn endless_runs_and_clashing_outputs_are_refused_before_writing() {
             "sim.navigation.levelling_s",
         ),
         ("[sim.dwell]\nmax_wait_s = 1e300", "sim.dwell.max_wait_s"),
+        // A fix a million seconds old: it was accepted and described the station held
+        // before the run.
+        (
+            "[sim.sensors]\nvision_delay_s = 1e6",
+            "sim.sensors.vision_delay_s",
+        ),
     ]
     .into_iter()
     .enumerate()
@@ -1024,6 +1030,48 @@ fn a_trajectory_planned_with_other_frames_is_refused() {
         "{err}"
     );
     assert!(!dir.path().join("o").exists());
+}
+
+/// A contact surface wound inside out (every triangle turned round: the trajectory's
+/// approach then starts 5 cm inside the material and comes out of it) or two-sided (every
+/// triangle twice, once each way) is bad input naming the file, and nothing is written: the
+/// first used to be a failed run (the tool "lost the surface" it touched from the start), the
+/// second a runaway.
+#[test]
+fn a_surface_inside_out_or_two_sided_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = uvms::io::ply::read_mesh(&repo("data/scans/bottle/scene_mesh.ply")).unwrap();
+    let turned: Vec<[u32; 3]> = mesh.triangles.iter().map(|&[a, b, c]| [c, b, a]).collect();
+    let inside_out = uvms::mesh::TriangleMesh {
+        vertices: mesh.vertices.clone(),
+        triangles: turned.clone(),
+    };
+    let two_sided = uvms::mesh::TriangleMesh {
+        vertices: mesh.vertices.clone(),
+        triangles: [mesh.triangles.clone(), turned].concat(),
+    };
+    for (name, surface, says) in [
+        ("inside_out", inside_out, "starts 50.3 mm inside the material"),
+        ("two_sided", two_sided, "holds 148619 triangles twice"),
+    ] {
+        let file = dir.path().join(format!("{name}.ply"));
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&file).unwrap());
+        uvms::io::ply::write_mesh(&mut w, &surface).unwrap();
+        drop(w);
+        let out = dir.path().join(name);
+        let o = sim_bottle_trajectory(
+            &bottle_run().0.join("config.toml"),
+            &out,
+            &["--quiet", "--surface", file.to_str().unwrap()],
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains(&format!("{name}.ply: ")) && err.contains(says) && err.lines().count() == 1,
+            "{err}"
+        );
+        assert!(!out.exists());
+    }
 }
 
 /// A trajectory so long the run would take 10¹² control periods is refused naming the

@@ -159,6 +159,8 @@ pub const PRODUCTS: [&str; 9] = [
 pub struct SimInputs {
     /// `None` until [`SimInputs::with_surface`] gives the run's own (`sim.surface_from`).
     mesh: Option<TriangleMesh>,
+    /// What names the surface in an error: its file, or the run's surface it is.
+    surface_origin: String,
     model: UvmsModel,
     t_world_scan: Pose,
 }
@@ -194,6 +196,7 @@ pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs
     crate::sim::controllers_model(cfg, &model)?;
     let inputs = SimInputs {
         mesh: None,
+        surface_origin: String::new(),
         model,
         t_world_scan: frames.t_world_scan(),
     };
@@ -216,7 +219,8 @@ impl SimInputs {
     /// `cfg`; `origin` names it in an error, `key` the setting that chose it.
     ///
     /// # Errors
-    /// [`Error::Input`] if the mesh has no triangles or the tool's footprint cannot sample it.
+    /// [`Error::Input`] if the mesh has no triangles, holds a triangle twice, or the tool's
+    /// footprint cannot sample it.
     pub fn with_surface(
         mut self,
         mesh: TriangleMesh,
@@ -231,7 +235,17 @@ impl SimInputs {
                 format!("has no triangles: the true surface the tool touches is a triangle mesh ({key})"),
             ));
         }
+        let repeated = mesh.repeated_triangles();
+        if repeated > 0 {
+            return Err(Error::input(
+                origin,
+                format!(
+                    "holds {repeated} triangles twice (a two-sided surface, or faces written twice): the tool's contact needs each surface once, its triangles wound with their normals out of the material ({key})"
+                ),
+            ));
+        }
         crate::sim::contact::check_footprint(&cfg.contact, &mesh).map_err(|e| Error::input(origin, e))?;
+        self.surface_origin = origin.to_string();
         self.mesh = Some(match frame {
             SurfaceFrame::Scan => mesh.transformed(&self.t_world_scan),
             SurfaceFrame::World => mesh,
@@ -275,7 +289,8 @@ pub fn sim_stage(
     })?;
     let result = simulate(trajectory, mesh, &inputs.model, cfg, &mut |f| {
         bar.set_position((f * 1000.0) as u64)
-    });
+    })
+    .map_err(|e| e.renamed("surface", &inputs.surface_origin));
     bar.finish_and_clear();
     let run = result?;
     out.write_with("timeseries.csv", |w| write_csv(&run.rows, w))?;

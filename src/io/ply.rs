@@ -4,7 +4,8 @@
 //! format (ascii, binary little- and big-endian) and:
 //! - `element vertex` with `x`, `y`, `z` as `float` or `double` (any other type is rejected);
 //!   optional `red`/`green`/`blue` (`uchar` as is, `ushort` divided by 257, `float`/`double`
-//!   taken as 0..1 and scaled by 255, rounded and clamped) and `nx`/`ny`/`nz` (`float`/`double`);
+//!   taken as 0..1 and scaled by 255, rounded and clamped, a NaN as 0: a colour only paints) and
+//!   `nx`/`ny`/`nz` (`float`/`double`);
 //!   a colour or normal triple is used only when all three properties are present;
 //! - `element face` with a `vertex_indices` (or `vertex_index`) list of any integer type;
 //!   polygons of n > 3 vertices are fan-triangulated into n − 2 triangles `(v0, vk, vk+1)`;

@@ -549,6 +549,7 @@ pub fn simulate(
     let mut plant = Plant::new(&plant_model, State::at_rest(h, hover.q_start), cfg.integrator)?;
     let sc = &cfg.scenario;
     let mut contact = Contact::new(surface, &cfg.contact)?;
+    check_approach(&mut contact, trajectory)?;
     let dt = 1.0 / cfg.control_rate_hz;
     let mut sea = SeaCurrent::new(
         sc.current_m_s,
@@ -982,6 +983,33 @@ pub fn simulate(
             .map(|s| contact.depth(&s.position))
             .reduce(f64::max),
     })
+}
+
+/// Checks that the trajectory's approach runs from its stand-off outside the surface of
+/// `contact` into the material, not out of it.
+///
+/// # Errors
+/// [`Error::Input`] naming `surface` when the approach starts inside the material and leaves it
+/// towards the contact: the surface is wound inside out (or is not the one the trajectory was
+/// planned on). Without such a check the run fails as the tool, touching from the start,
+/// pushes off a surface that is not where the normals say.
+fn check_approach(contact: &mut Contact, trajectory: &Trajectory) -> Result<()> {
+    let mut approach = trajectory.phase(Phase::Approach);
+    let (Some(first), Some(last)) = (approach.next(), approach.last()) else {
+        return Ok(());
+    };
+    let (from, to) = (contact.depth(&first.position), contact.depth(&last.position));
+    if from > 0.0 && to < from {
+        return Err(Error::input(
+            "surface",
+            format!(
+                "the trajectory's approach starts {:.1} mm inside the material by this surface's normals and comes out of it towards the contact ({:.1} mm at its end): its triangles are wound inside out, their normals pointing into the material (or it is not the surface the trajectory was planned on)",
+                from * 1e3,
+                to * 1e3
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The fastest sea current a configuration may set, m/s.

@@ -20,7 +20,7 @@
 //! `ChaCha8Rng` seeded from the configuration, the water track's from a stream of its own.
 
 use crate::arm::JointVector;
-use crate::config::{non_negative, positive};
+use crate::config::{non_negative, positive, require, shown};
 use crate::error::Result;
 use crate::synth::random::{NormalPairs, stream};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -50,7 +50,7 @@ pub struct SensorConfig {
     pub accelerometer_noise_m_s2_per_rt_hz: f64,
     /// Standard deviation of the accelerometers' constant bias (one draw per axis), m/s².
     pub accelerometer_bias_m_s2: f64,
-    /// Delay of the vision system's position fix, s (the seed's 0.25 s).
+    /// Delay of the vision system's position fix, s (the seed's 0.25 s; at most 10 s).
     pub vision_delay_s: f64,
     /// Rate of the vision fixes, Hz.
     pub vision_rate_hz: f64,
@@ -81,6 +81,9 @@ impl Default for SensorConfig {
     }
 }
 
+/// The longest delay of the vision fix a configuration may set, s.
+const MAX_VISION_DELAY_S: f64 = 10.0;
+
 impl SensorConfig {
     /// Checks the values.
     ///
@@ -110,6 +113,16 @@ impl SensorConfig {
             self.accelerometer_bias_m_s2,
         )?;
         non_negative("sim.sensors.vision_delay_s", self.vision_delay_s)?;
+        // Stereo processing or an acoustic fix takes a second or two; a fix older than the
+        // run describes the station held before it, not the vehicle.
+        require(
+            self.vision_delay_s <= MAX_VISION_DELAY_S,
+            "sim.sensors.vision_delay_s",
+            format!(
+                "must be at most {MAX_VISION_DELAY_S} s (a fix that old no longer tells where the vehicle is), got {} s",
+                shown(self.vision_delay_s)
+            ),
+        )?;
         non_negative("sim.sensors.vision_noise_m", self.vision_noise_m)?;
         non_negative("sim.sensors.water_track_rate_hz", self.water_track_rate_hz)?;
         non_negative("sim.sensors.water_track_noise_m_s", self.water_track_noise_m_s)?;
