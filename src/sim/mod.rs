@@ -88,6 +88,16 @@ pub struct ModelMismatch {
     /// Factor on the drives' viscous and Coulomb friction (the ICU's drive equation and the
     /// joint control use it).
     pub drive_friction_scale: f64,
+    /// Factor on the drives' rotor inertia (the ICU's drive equation, the joint control's
+    /// feed-forward and the whole system's inertia use it).
+    pub rotor_inertia_scale: f64,
+    /// Factor on the vehicle's added mass (the whole system's inertia of the ICU and the hover
+    /// point, the stabilisation's model).
+    pub vehicle_added_mass_scale: f64,
+    /// Factor on the thrusters' thrust: the controllers command each rotor for the thrust their
+    /// model says it gives, so at 1.25 the plant's thrusters give 20 % less than asked (worn or
+    /// fouled propellers), at 0.8 a quarter more.
+    pub thrust_scale: f64,
 }
 
 impl Default for ModelMismatch {
@@ -97,6 +107,9 @@ impl Default for ModelMismatch {
             link_hydro_scale: 0.8,
             vehicle_damping_scale: 0.8,
             drive_friction_scale: 1.0,
+            rotor_inertia_scale: 1.0,
+            vehicle_added_mass_scale: 1.0,
+            thrust_scale: 1.0,
         }
     }
 }
@@ -109,6 +122,7 @@ impl ModelMismatch {
             link.mass *= self.link_mass_scale;
             link.viscous_friction *= self.drive_friction_scale;
             link.coulomb_friction = link.coulomb_friction.map(|c| c * self.drive_friction_scale);
+            link.motor_inertia *= self.rotor_inertia_scale;
             for row in &mut link.inertia {
                 for v in row {
                     *v *= self.link_mass_scale;
@@ -131,6 +145,12 @@ impl ModelMismatch {
         {
             *v *= self.vehicle_damping_scale;
         }
+        for v in m.vehicle.added_mass.iter_mut().flatten() {
+            *v *= self.vehicle_added_mass_scale;
+        }
+        for unit in &mut m.thrusters.units {
+            unit.max_thrust *= self.thrust_scale;
+        }
         // The controllers do not know the sea current.
         m.environment.current = [0.0; 3];
         m
@@ -146,7 +166,16 @@ impl ModelMismatch {
         non_negative(
             "sim.controller_model.drive_friction_scale",
             self.drive_friction_scale,
-        )
+        )?;
+        non_negative(
+            "sim.controller_model.rotor_inertia_scale",
+            self.rotor_inertia_scale,
+        )?;
+        non_negative(
+            "sim.controller_model.vehicle_added_mass_scale",
+            self.vehicle_added_mass_scale,
+        )?;
+        positive("sim.controller_model.thrust_scale", self.thrust_scale)
     }
 }
 
@@ -586,6 +615,10 @@ pub fn simulate(
         .inverse_dynamics(&plant.state, &GenVector::zeros(), &Force::ZERO)
         .fixed_rows::<6>(0)
         .into_owned();
+    // The controllers' thrust is `thrust_scale` times the plant's: what they command for a
+    // thrust `T` of their model, the plant's thrusters give as `T / thrust_scale`.
+    let to_plant = 1.0 / cfg.controller_model.thrust_scale;
+    let plant_thrusts = |thrusts: &[f64]| -> Vec<f64> { thrusts.iter().map(|t| t * to_plant).collect() };
     // At rest the accelerometers read the specific force `−g` (`C` axes).
     let f_rest = h.rotation.inverse() * Vector3::new(0.0, 0.0, -g);
     let zero = JointVector::zeros();
@@ -604,7 +637,8 @@ pub fn simulate(
     let mut unheld: Option<Vector6<f64>> = None;
     for _ in 0..HOLD_ITERATIONS {
         let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
-        let left = held - vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0);
+        let asked = vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0);
+        let left = held * cfg.controller_model.thrust_scale - asked;
         let trimmed = unheld.is_some_and(|u| (left - u).norm() < HOLD_TOLERANCE_N);
         unheld = Some(left);
         trim += left * relax;
@@ -656,7 +690,11 @@ pub fn simulate(
             ),
         ));
     }
-    plant.thrusters.hold(&allocator.allocate(&held).thrusts)?;
+    plant.thrusters.hold(&plant_thrusts(
+        &allocator
+            .allocate(&(held * cfg.controller_model.thrust_scale))
+            .thrusts,
+    ))?;
     let first_eval = plant.system.accelerations(
         &plant.state,
         &Inputs {
@@ -832,6 +870,7 @@ pub fn simulate(
         vc.learn_current(!icu.touched());
         let tau_vehicle = vc.wrench(&meas, &nav, &ctrl.vehicle, g, &open, dt);
         let alloc = allocator.allocate(&tau_vehicle);
+        let thrust_cmd = plant_thrusts(&alloc.thrusts);
         if alloc.scale < 1.0 {
             saturated += 1;
         }
@@ -898,7 +937,7 @@ pub fn simulate(
             };
             let input = PlantInput {
                 tau_drive: tau,
-                thrust_cmd: &alloc.thrusts,
+                thrust_cmd: &thrust_cmd,
                 f_env_on_tool: contact_now.wrench,
             };
             let report = plant
@@ -1284,12 +1323,17 @@ mod tests {
         }
     }
 
+    /// Each factor scales its own quantities of the controllers' model and nothing else; the
+    /// default's new factors leave the model as it was.
     #[test]
     fn the_controllers_model_scales_the_drive_friction_and_forgets_the_current() {
         let mut plant = UvmsModel::default();
         plant.environment.current = [0.3, 0.0, 0.0];
         let m = ModelMismatch {
             drive_friction_scale: 0.5,
+            rotor_inertia_scale: 1.5,
+            vehicle_added_mass_scale: 0.7,
+            thrust_scale: 1.25,
             ..ModelMismatch::default()
         };
         let c = m.apply(&plant);
@@ -1297,12 +1341,52 @@ mod tests {
             assert_eq!(a.viscous_friction, 0.5 * b.viscous_friction);
             assert_eq!(a.coulomb_friction, b.coulomb_friction.map(|v| 0.5 * v));
             assert_eq!(a.mass, m.link_mass_scale * b.mass);
+            assert_eq!(a.motor_inertia, 1.5 * b.motor_inertia);
+            assert_eq!(a.gear_ratio, b.gear_ratio);
+        }
+        for (a, b) in c
+            .vehicle
+            .added_mass
+            .iter()
+            .flatten()
+            .zip(plant.vehicle.added_mass.iter().flatten())
+        {
+            assert_eq!(*a, 0.7 * b);
+        }
+        assert_eq!(c.vehicle.mass, plant.vehicle.mass);
+        assert_eq!(c.vehicle.inertia, plant.vehicle.inertia);
+        for (a, b) in c.thrusters.units.iter().zip(&plant.thrusters.units) {
+            assert_eq!(a.max_thrust, 1.25 * b.max_thrust);
+            assert_eq!(a.time_constant, b.time_constant);
         }
         assert_eq!(c.environment.current, [0.0; 3]);
-        let bad = ModelMismatch {
-            drive_friction_scale: -1.0,
+        let matched = ModelMismatch {
+            link_mass_scale: 1.0,
+            link_hydro_scale: 1.0,
+            vehicle_damping_scale: 1.0,
             ..ModelMismatch::default()
         };
-        assert!(bad.validate().is_err());
+        plant.environment.current = [0.0; 3];
+        assert_eq!(matched.apply(&plant), plant);
+        for bad in [
+            ModelMismatch {
+                drive_friction_scale: -1.0,
+                ..ModelMismatch::default()
+            },
+            ModelMismatch {
+                rotor_inertia_scale: -1.0,
+                ..ModelMismatch::default()
+            },
+            ModelMismatch {
+                vehicle_added_mass_scale: f64::NAN,
+                ..ModelMismatch::default()
+            },
+            ModelMismatch {
+                thrust_scale: 0.0,
+                ..ModelMismatch::default()
+            },
+        ] {
+            assert!(bad.validate().is_err());
+        }
     }
 }
