@@ -444,7 +444,7 @@ fn unreachable_failure(summary: &SimSummary, cfg: &SimConfig) -> Option<Error> {
         Error::failed(
             "sim",
             format!(
-                "the arm could not reach {n} of the tool's targets ({:.3} s of the run; its set-points held): the path was not followed (the products are written; ‖e‖ up to {:.1} mm, the thrusters saturated in {:.1} % of the control periods)",
+                "the arm could not reach {n} of the tool's targets ({:.3} s of the run) within its joint limits without changing its posture (its set-points held): the path was not followed (the products are written; ‖e‖ up to {:.1} mm, the thrusters saturated in {:.1} % of the control periods)",
                 n as f64 / cfg.control_rate_hz,
                 1e3 * summary.figures.tool_deviation_max_m,
                 100.0 * summary.thrust_saturated_fraction
