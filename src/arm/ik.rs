@@ -418,6 +418,28 @@ impl Arm {
         Ok((r * a2 * l3 * beta.sin() * theta5.sin()).abs())
     }
 
+    /// Whether `a` and `b` are the same posture of a PUMA-class arm: the wrist centre on the
+    /// same side of the first axis in the arm's plane (shoulder left or right: `r` of the IK's
+    /// two shoulder solutions is `±√(ρ² − lateral²)`), the elbow bent the same way (`sin β`,
+    /// `β = θ3 + ψ`, of the IK's two elbow solutions `±β₀`) and the wrist too (`sin θ5`, of
+    /// its two solutions). Where two postures meet (one of these zero within `1e-9`: a
+    /// singularity) either counts as the same. Only the joint angles are read.
+    pub fn same_posture(&self, a: &JointVector, b: &JointVector) -> bool {
+        let off = |i: usize| self.links[i].dh().theta_offset;
+        let Elbow { a2, l3, psi, .. } = self.elbow();
+        let posture = |q: &JointVector| {
+            let beta = q[2] + off(2) + psi;
+            // The wrist centre's elevation in the arm's plane, as the IK's θ2 = elevation −
+            // atan2(l3 sin β, a2 + l3 cos β): `r` has the sign of its cosine.
+            let elevation = q[1] + off(1) + (l3 * beta.sin()).atan2(a2 + l3 * beta.cos());
+            [elevation.cos(), beta.sin(), (q[4] + off(4)).sin()]
+        };
+        let (pa, pb) = (posture(a), posture(b));
+        pa.iter()
+            .zip(&pb)
+            .all(|(x, y)| x * y >= 0.0 || x.abs().min(y.abs()) < 1e-9)
+    }
+
     /// The shoulder and elbow of a PUMA-class arm, from its DH table.
     fn elbow(&self) -> Elbow {
         let dh = |i: usize| *self.links[i].dh();
@@ -623,6 +645,43 @@ mod tests {
             let [lo, hi] = arm.links[i].limits;
             rng.random_range(lo..hi)
         })
+    }
+
+    /// The eight solutions of a generic pose are the arm's eight postures, each its own and
+    /// no other's; a configuration nudged along any joint keeps its posture, and one through
+    /// the wrist's singularity (`q5` across 0) meets both.
+    #[test]
+    fn the_eight_solutions_are_eight_postures() {
+        let mut arm = arm();
+        for l in &mut arm.links {
+            l.limits = [-PI, PI];
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for q in [
+            JointVector::new(0.4, 0.6, -2.0, 0.5, 0.8, -0.3),
+            random_q(&arm, &mut rng),
+        ] {
+            let sols = arm.ik(&arm.t_base_tool(&q), &q).unwrap();
+            assert_eq!(sols.len(), 8, "{q}");
+            for (i, a) in sols.as_slice().iter().enumerate() {
+                for (j, b) in sols.as_slice().iter().enumerate() {
+                    assert_eq!(arm.same_posture(a, b), i == j, "{a} {b}");
+                }
+                for k in 0..6 {
+                    let mut nudged = *a;
+                    nudged[k] += 1e-3;
+                    assert!(arm.same_posture(a, &nudged), "{a} joint {k}");
+                }
+            }
+        }
+        let off = arm.links[4].dh().theta_offset;
+        let at = JointVector::new(0.4, 0.6, -2.0, 0.5, -off, -0.3);
+        let mut bent = at;
+        bent[4] += 0.3;
+        let mut other = at;
+        other[4] -= 0.3;
+        assert!(!arm.same_posture(&bent, &other));
+        assert!(arm.same_posture(&at, &bent) && arm.same_posture(&at, &other));
     }
 
     #[test]

@@ -1024,27 +1024,39 @@ pub fn simulate(
     })
 }
 
-/// Checks that the trajectory's approach runs from its stand-off outside the surface of
-/// `contact` into the material, not out of it.
+/// Checks that the surface of `contact` faces the tool where the trajectory first presses on
+/// it, and that the trajectory's approach, if it has one, starts outside it.
 ///
 /// # Errors
-/// [`Error::Input`] naming `surface` when the approach starts inside the material and leaves it
-/// towards the contact: the surface is wound inside out (or is not the one the trajectory was
-/// planned on). Without such a check the run fails as the tool, touching from the start,
-/// pushes off a surface that is not where the normals say.
+/// [`Error::Input`] naming `surface` when the surface's normal where the tool first presses
+/// points along the tool's push `k` and the approach (if any) starts inside the material: the
+/// surface is wound inside out (or is not the one the trajectory was planned on). Without the
+/// check the run failed as the tool, touching from the start, pushed off a surface that is not
+/// where the normals say. Either sign alone can mislead on a real scan (an approach starting
+/// behind a fragment of it, a normal turned on a sliver), both together do not.
 fn check_approach(contact: &mut Contact, trajectory: &Trajectory) -> Result<()> {
-    let mut approach = trajectory.phase(Phase::Approach);
-    let (Some(first), Some(last)) = (approach.next(), approach.last()) else {
+    let Some(touch) = trajectory.samples.iter().find(|s| s.phase != Phase::Approach) else {
         return Ok(());
     };
-    let (from, to) = (contact.depth(&first.position), contact.depth(&last.position));
-    if from > 0.0 && to < from {
+    let (_, normal) = contact.depth_and_normal(&touch.position);
+    let start = trajectory
+        .samples
+        .first()
+        .filter(|s| s.phase == Phase::Approach)
+        .map(|s| contact.depth(&s.position));
+    if normal.dot(&touch.k) > 0.0 && start.is_none_or(|d| d > 0.0) {
+        let starts = start.map_or(String::new(), |d| {
+            format!(
+                "the trajectory's approach starts {:.1} mm inside the material by its normals, and ",
+                d * 1e3
+            )
+        });
         return Err(Error::input(
             "surface",
             format!(
-                "the trajectory's approach starts {:.1} mm inside the material by this surface's normals and comes out of it towards the contact ({:.1} mm at its end): its triangles are wound inside out, their normals pointing into the material (or it is not the surface the trajectory was planned on)",
-                from * 1e3,
-                to * 1e3
+                "{starts}where the tool first presses on it (t = {:.2} s) its normal points along the tool's push, {:.0}° from facing the tool: its triangles are wound inside out, their normals pointing into the material (or it is not the surface the trajectory was planned on)",
+                touch.t,
+                normal.angle(&-touch.k).to_degrees()
             ),
         ));
     }

@@ -29,22 +29,22 @@ pub fn vehicle_pose(position: &Vector3<f64>, attitude: &UnitQuaternion<f64>) -> 
     Isometry3::from_parts(Translation3::from(*position), *attitude)
 }
 
-/// The largest step of a joint's set-point from one update to the next that is a motion, rad:
-/// a larger one is a change of posture. At the tool's centimetres a second the set-points move
-/// by under a milliradian a control period (0.6 rad/s at most in both pipelines' runs); where
-/// two postures meet (the wrist's, the elbow's or the shoulder's singularity) the nearest
-/// solution passes from one to the other continuously, and elsewhere the other postures lie
-/// radians away (the waist's other side, the wrist turned by π). Half a radian in a period
-/// (500 rad/s at 1 kHz) is no drive's motion, and above the 0.18 rad a vehicle off its station
-/// by 2 cm and 30 mrad asks of the arm at once.
+/// The largest step of a joint's set-point from one update to the next that is a motion
+/// whatever the posture, rad. At the tool's centimetres a second the set-points move by under a
+/// milliradian a control period (0.6 rad/s at most in both pipelines' runs); where two
+/// postures meet (the wrist's, the elbow's or the shoulder's singularity) the nearest solution
+/// passes from one to the other continuously, and elsewhere the other postures lie radians away
+/// (the waist's other side, the wrist turned by π). Half a radian is above the 0.18 rad a
+/// vehicle off its station by 2 cm and 30 mrad asks of the arm at once.
 pub const POSTURE_STEP_RAD: f64 = 0.5;
 
-/// Joint set-points for the tool pose `t_base_tool`: the IK solution nearest `q_prev`, or
-/// `None` if the pose is out of reach within the joint limits, or reachable only in another
-/// posture (a joint's step past [`POSTURE_STEP_RAD`]: a joint at its limit, the shoulder, the
-/// elbow or the wrist flipped). Taking that solution swung the arm through the workspace: in
-/// soil with the waist near its limit, its set-point turned by 2.4 rad within 0.1 s
-/// and the sampler ploughed 15 cm off its path at 220 N.
+/// Joint set-points for the tool pose `t_base_tool`: the IK solution nearest `q_prev` if it
+/// steps by at most [`POSTURE_STEP_RAD`] or keeps the posture of `q_prev`
+/// ([`Arm::same_posture`]), else the nearest that keeps it; `None` if the pose is out of reach
+/// within the joint limits in that posture. Taking another posture swung the arm through the
+/// workspace: in soil with the waist at its limit, its set-point turned by 2.4 rad within
+/// 0.1 s and the sampler ploughed 15 cm off its path at 220 N. A set-point held meanwhile
+/// catches up with the target once the posture reaches it again, however far it has moved.
 ///
 /// # Errors
 /// As [`Arm::ik`] (an arm not of the PUMA class, a non-finite pose).
@@ -53,9 +53,18 @@ pub fn set_point(
     t_base_tool: &Isometry3<f64>,
     q_prev: &JointVector,
 ) -> Result<Option<JointVector>> {
+    let Some(q) = arm.ik_nearest(t_base_tool, q_prev)? else {
+        return Ok(None);
+    };
+    if (q - q_prev).amax() <= POSTURE_STEP_RAD || arm.same_posture(&q, q_prev) {
+        return Ok(Some(q));
+    }
     Ok(arm
-        .ik_nearest(t_base_tool, q_prev)?
-        .filter(|q| (q - q_prev).amax() <= POSTURE_STEP_RAD))
+        .ik(t_base_tool, q_prev)?
+        .as_slice()
+        .iter()
+        .find(|s| arm.same_posture(s, q_prev))
+        .copied())
 }
 
 #[cfg(test)]
@@ -92,7 +101,7 @@ mod tests {
 
     /// Past the waist's limit the nearest solution within the limits is the arm's other
     /// posture, 2.4 rad away: no set-point (held, counted out of reach); a step within the
-    /// limit is one.
+    /// limit is one, and so is a long one in the posture.
     #[test]
     fn another_posture_is_no_set_point() {
         let mb = Multibody::new(&UvmsModel::default()).unwrap();
@@ -110,5 +119,9 @@ mod tests {
         assert_eq!(set_point(&mb.arm, &beyond, &q0).unwrap(), None);
         let q = set_point(&mb.arm, &at(limit - 0.03), &q0).unwrap().unwrap();
         assert!((q[0] - (limit - 0.03)).abs() < 1e-9, "{q}");
+        // A set-point held while the target moved on catches up in its posture, 0.55 rad on.
+        let held = JointVector::new(limit - 0.6, 0.9, -2.0, 0.2, 0.6, -0.1);
+        let q = set_point(&mb.arm, &at(limit - 0.05), &held).unwrap().unwrap();
+        assert!((q[0] - (limit - 0.05)).abs() < 1e-9, "{q}");
     }
 }
