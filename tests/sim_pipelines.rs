@@ -153,6 +153,37 @@ fn bottle_run() -> &'static (PathBuf, Value) {
     })
 }
 
+/// The summary's closest approach to a joint limit is the time series' (logged every tenth
+/// period: within what the joints move in 10 ms) on the same joint, measured against the
+/// model's limits.
+#[test]
+fn the_closest_joint_limit_is_the_logged_joints() {
+    let (out, s) = bottle_run();
+    let limits: Vec<[f64; 2]> = uvms::model::load(None)
+        .unwrap()
+        .arm
+        .links
+        .iter()
+        .map(|l| l.joint_limits)
+        .collect();
+    let series = Series::read(out);
+    let (mut least, mut joint) = (f64::INFINITY, 0);
+    for (j, [lo, hi]) in limits.iter().enumerate() {
+        for q in series.values(&format!("q{}", j + 1)) {
+            let m = (q - lo).min(hi - q);
+            if m < least {
+                (least, joint) = (m, j + 1);
+            }
+        }
+    }
+    let margin = s["sim"]["joint_limit_margin_rad"].as_f64().unwrap();
+    assert_eq!(s["sim"]["joint_limit_margin_joint"].as_u64(), Some(joint as u64));
+    assert!(
+        margin > 0.0 && margin <= least + 1e-6 && least - margin < 0.01,
+        "summary {margin} rad, logged {least} rad"
+    );
+}
+
 #[test]
 fn bottle_cleaning_end_to_end() {
     let dir = tempfile::tempdir().unwrap();

@@ -75,6 +75,11 @@ pub fn sim_text(s: &SimSummary) -> String {
         "sim          {:.1} s simulated at {:.0}× real time",
         s.simulated_s, s.realtime_factor
     );
+    let _ = writeln!(
+        t,
+        "  arm        closest to a joint limit: joint {} at {:.3} rad",
+        s.joint_limit_margin_joint, s.joint_limit_margin_rad
+    );
     let f = |v: Option<f64>| v.map_or("never".to_string(), |v| format!("{v:.2} s"));
     // No settled force to show (never touched, or not for long): said so, not "NaN N".
     let settled = if s.figures.force_settled_mean_n.is_finite() {

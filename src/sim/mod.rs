@@ -519,6 +519,11 @@ pub struct SimSummary {
     /// Control periods along the path (not the tail after it) in which the corrected tool pose
     /// had no IK solution (set-point held).
     pub unreachable_steps: usize,
+    /// The arm's least distance from a joint limit over the run, rad: a station that leaves the
+    /// path close to a limit leaves the vehicle's motion little room.
+    pub joint_limit_margin_rad: f64,
+    /// The joint (1-based) that came closest to its limit.
+    pub joint_limit_margin_joint: usize,
     /// Fraction of control periods with the thrust command scaled down to the limits.
     pub thrust_saturated_fraction: f64,
     /// The stabilisation pose: position (m) and heading (deg).
@@ -745,6 +750,10 @@ pub fn simulate(
     let mut guarding = cfg.dwell.touch_n > 0.0 && guard_speed > 0.0;
     let (mut dwell_wait, mut settled_for) = (0.0, 0.0);
     let (mut unreachable, mut saturated) = (0usize, 0usize);
+    // The arm's least distance from a joint limit (the plant's joints, for the record), rad,
+    // and the joint.
+    let limits: Vec<[f64; 2]> = plant_model.arm.links.iter().map(|l| l.joint_limits).collect();
+    let mut limit_margin = (f64::INFINITY, 0usize);
     let wall = std::time::Instant::now();
     let mut k = 0usize;
     let sub_dt = dt / cfg.plant_substeps as f64;
@@ -906,6 +915,12 @@ pub fn simulate(
                 in_contact: cs.in_contact(),
             }));
         }
+        for (j, [lo, hi]) in limits.iter().enumerate() {
+            let margin = (state.q[j] - lo).min(hi - state.q[j]);
+            if margin < limit_margin.0 {
+                limit_margin = (margin, j);
+            }
+        }
         rec.observe(&record::Observation {
             phase: s.phase,
             t,
@@ -1006,6 +1021,8 @@ pub fn simulate(
         simulated_s: simulated,
         dwell_wait_s: dwell_wait,
         unreachable_steps: unreachable,
+        joint_limit_margin_rad: limit_margin.0,
+        joint_limit_margin_joint: limit_margin.1 + 1,
         thrust_saturated_fraction: saturated as f64 / k.max(1) as f64,
         hover_position_m: [p.x, p.y, p.z],
         hover_yaw_deg: rpy.2.to_degrees(),
