@@ -67,22 +67,6 @@ impl TriangleMesh {
         (b - a).cross(&(c - a)).try_normalize(1e-300)
     }
 
-    /// The mesh without its degenerate triangles (those without a normal,
-    /// [`Self::triangle_normal`]; a triangle with an index out of range is kept for the
-    /// caller's check to name).
-    pub fn without_degenerate(&self) -> TriangleMesh {
-        let n = self.vertices.len();
-        TriangleMesh {
-            vertices: self.vertices.clone(),
-            triangles: (0..self.triangles.len())
-                .filter(|&t| {
-                    self.triangles[t].iter().any(|&i| i as usize >= n) || self.triangle_normal(t).is_some()
-                })
-                .map(|t| self.triangles[t])
-                .collect(),
-        }
-    }
-
     /// How many triangles with an area repeat an earlier one: the same three corners (by
     /// position, in any order or winding), as a two-sided surface or a face written twice has
     /// them (triangles without area, a strip's joints, are left out). Triangle indices must be

@@ -104,7 +104,8 @@ impl Surface {
     /// results refer to the triangles that remain, in their original order.
     ///
     /// # Errors
-    /// [`Error::Input`] if the mesh has no triangle, an index out of range, or a non-finite vertex.
+    /// [`Error::Input`] if the mesh has no triangle with an area, an index out of range, or a
+    /// non-finite vertex.
     pub fn new(mesh: &TriangleMesh) -> Result<Self> {
         let n = mesh.vertices.len();
         if mesh.triangles.is_empty() {
@@ -120,8 +121,17 @@ impl Surface {
         if mesh.triangles.iter().flatten().any(|&i| i as usize >= n) {
             return Err(Error::input("surface", "a triangle index is out of range"));
         }
+        // A triangle without area has no side to push from, and its edges would hide an open
+        // mesh's rim.
+        let triangles: Vec<[u32; 3]> = (0..mesh.triangles.len())
+            .filter(|&t| mesh.triangle_normal(t).is_some())
+            .map(|t| mesh.triangles[t])
+            .collect();
+        if triangles.is_empty() {
+            return Err(Error::input("surface", "mesh has no triangles with an area"));
+        }
         let verts = mesh.vertices.iter().map(g).collect();
-        let tri = TriMesh::with_flags(verts, mesh.triangles.clone(), TriMeshFlags::empty())
+        let tri = TriMesh::with_flags(verts, triangles, TriMeshFlags::empty())
             .map_err(|e| Error::input("surface", format!("{e:?}")))?;
         let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
         for t in tri.indices() {

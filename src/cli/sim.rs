@@ -162,10 +162,9 @@ pub const PRODUCTS: [&str; 9] = [
 /// plant's model.
 #[derive(Debug, Clone)]
 pub struct SimInputs {
-    /// `None` until [`SimInputs::with_surface`] gives the run's own (`sim.surface_from`).
-    mesh: Option<TriangleMesh>,
-    /// What names the surface in an error: its file, or the run's surface it is.
-    surface_origin: String,
+    /// The true surface and what names it in an error (its file, or the run's surface it
+    /// is); `None` until [`SimInputs::with_surface`] gives the run's own (`sim.surface_from`).
+    surface: Option<(TriangleMesh, String)>,
     model: UvmsModel,
     t_world_scan: Pose,
 }
@@ -200,8 +199,7 @@ pub fn load_sim_inputs(cfg: &SimConfig, frames: &ScanFrames) -> Result<SimInputs
         .map_err(|e| Error::input(origin, e))?;
     crate::sim::controllers_model(cfg, &model)?;
     let inputs = SimInputs {
-        mesh: None,
-        surface_origin: String::new(),
+        surface: None,
         model,
         t_world_scan: frames.t_world_scan(),
     };
@@ -250,11 +248,11 @@ impl SimInputs {
             ));
         }
         crate::sim::contact::check_footprint(&cfg.contact, &mesh).map_err(|e| Error::input(origin, e))?;
-        self.surface_origin = origin.to_string();
-        self.mesh = Some(match frame {
+        let mesh = match frame {
             SurfaceFrame::Scan => mesh.transformed(&self.t_world_scan),
             SurfaceFrame::World => mesh,
-        });
+        };
+        self.surface = Some((mesh, origin.to_string()));
         Ok(self)
     }
 }
@@ -283,7 +281,7 @@ pub fn sim_stage(
     ctx: &Ctx,
 ) -> Result<SimStage> {
     let bar = ctx.progress(1000, "sim");
-    let mesh = inputs.mesh.as_ref().ok_or_else(|| {
+    let (mesh, origin) = inputs.surface.as_ref().ok_or_else(|| {
         Error::input(
             "sim.surface_from",
             format!(
@@ -295,7 +293,7 @@ pub fn sim_stage(
     let result = simulate(trajectory, mesh, &inputs.model, cfg, &mut |f| {
         bar.set_position((f * 1000.0) as u64)
     })
-    .map_err(|e| e.renamed("surface", &inputs.surface_origin));
+    .map_err(|e| e.renamed("surface", origin));
     bar.finish_and_clear();
     let run = result?;
     out.write_with("timeseries.csv", |w| write_csv(&run.rows, w))?;

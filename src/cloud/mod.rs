@@ -65,16 +65,16 @@ impl PointCloud {
     }
 }
 
-/// The diagonal of an object model's bounding box, m: a model between 1 cm and 20 m across is
+/// The bounding box `(min, max)` of an object model whose diagonal is 1 cm to 20 m, the size of
 /// an object a tool can work on; outside, the file's units are most likely not metres.
 ///
 /// # Errors
 /// [`Error::Input`] naming `what` when the model has no points or is outside that span.
-pub fn object_size(what: &str, points: &[Point3<f64>]) -> Result<f64> {
+pub fn object_size(what: &str, points: &[Point3<f64>]) -> Result<(Point3<f64>, Point3<f64>)> {
     let (lo, hi) = bbox(points).ok_or_else(|| Error::input(what, "the model has no points"))?;
     let size = (hi - lo).norm();
     if (0.01..=20.0).contains(&size) {
-        Ok(size)
+        Ok((lo, hi))
     } else {
         Err(Error::input(
             what,

@@ -373,9 +373,7 @@ impl Contact {
     /// or a footprint too small for the mesh's size.
     pub fn new(mesh: &TriangleMesh, cfg: &ContactConfig) -> Result<Self> {
         cfg.validate()?;
-        // A triangle without area has no side to push from, and its edges would hide an open
-        // mesh's rim.
-        let surface = Surface::new(&mesh.without_degenerate())?;
+        let surface = Surface::new(mesh)?;
         let footprint = if cfg.footprint_radius_m > 0.0 {
             Some(Footprint::new(&surface, cfg.footprint_radius_m)?)
         } else {

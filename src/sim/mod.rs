@@ -47,7 +47,7 @@ use crate::multibody::{Accelerations, GenVector, Inputs, Multibody, State, ToolD
 use crate::plant::{Plant, PlantInput};
 use crate::spatial_algebra::Force;
 use crate::trajectory::{Phase, Trajectory};
-use crate::vehicle::thrusters::Thrusters;
+use crate::vehicle::thrusters::{Allocation, Thrusters};
 use contact::{Contact, ContactConfig};
 use current::SeaCurrent;
 use fcu::{Fcu, FcuConfig, force_error};
@@ -621,9 +621,16 @@ pub fn simulate(
         .fixed_rows::<6>(0)
         .into_owned();
     // The controllers' thrust is `thrust_scale` times the plant's: what they command for a
-    // thrust `T` of their model, the plant's thrusters give as `T / thrust_scale`.
+    // thrust `T` of their model, the plant's thrusters give as `T / thrust_scale`; they hold
+    // the plant's static wrench by asking for `held_asked`.
     let to_plant = 1.0 / cfg.controller_model.thrust_scale;
-    let plant_thrusts = |thrusts: &[f64]| -> Vec<f64> { thrusts.iter().map(|t| t * to_plant).collect() };
+    let held_asked = held * cfg.controller_model.thrust_scale;
+    let to_plant_commands = |mut alloc: Allocation| {
+        for t in &mut alloc.thrusts {
+            *t *= to_plant;
+        }
+        alloc
+    };
     // At rest the accelerometers read the specific force `−g` (`C` axes).
     let f_rest = h.rotation.inverse() * Vector3::new(0.0, 0.0, -g);
     let zero = JointVector::zeros();
@@ -643,7 +650,7 @@ pub fn simulate(
     for _ in 0..HOLD_ITERATIONS {
         let open0 = -arm.base_wrench_in_body(&static_id.wrench_on_base);
         let asked = vc.wrench(&held_station(&hover, f_rest), &nav, &ctrl.vehicle, g, &open0, 0.0);
-        let left = held * cfg.controller_model.thrust_scale - asked;
+        let left = held_asked - asked;
         let trimmed = unheld.is_some_and(|u| (left - u).norm() < HOLD_TOLERANCE_N);
         unheld = Some(left);
         trim += left * relax;
@@ -695,11 +702,9 @@ pub fn simulate(
             ),
         ));
     }
-    plant.thrusters.hold(&plant_thrusts(
-        &allocator
-            .allocate(&(held * cfg.controller_model.thrust_scale))
-            .thrusts,
-    ))?;
+    plant
+        .thrusters
+        .hold(&to_plant_commands(allocator.allocate(&held_asked)).thrusts)?;
     let first_eval = plant.system.accelerations(
         &plant.state,
         &Inputs {
@@ -878,8 +883,7 @@ pub fn simulate(
         };
         vc.learn_current(!icu.touched());
         let tau_vehicle = vc.wrench(&meas, &nav, &ctrl.vehicle, g, &open, dt);
-        let alloc = allocator.allocate(&tau_vehicle);
-        let thrust_cmd = plant_thrusts(&alloc.thrusts);
+        let alloc = to_plant_commands(allocator.allocate(&tau_vehicle));
         if alloc.scale < 1.0 {
             saturated += 1;
         }
@@ -952,7 +956,7 @@ pub fn simulate(
             };
             let input = PlantInput {
                 tau_drive: tau,
-                thrust_cmd: &thrust_cmd,
+                thrust_cmd: &alloc.thrusts,
                 f_env_on_tool: contact_now.wrench,
             };
             let report = plant

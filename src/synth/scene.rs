@@ -263,8 +263,7 @@ pub fn reference_mesh(cfg: &SynthConfig) -> Result<TriangleMesh> {
     if mesh.area() <= 0.0 {
         return Err(Error::input(what, "the mesh has no surface area"));
     }
-    crate::cloud::object_size(&what, &mesh.vertices)?;
-    let (lo, hi) = crate::cloud::bbox(&mesh.vertices).unwrap_or_default();
+    let (lo, hi) = crate::cloud::object_size(&what, &mesh.vertices)?;
     if o.burial_m >= 0.9 * (hi.z - lo.z) {
         return Err(Error::input(
             "config object.burial_m",
