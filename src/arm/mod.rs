@@ -214,6 +214,20 @@ impl Arm {
     pub fn within_limits(&self, q: &JointVector) -> bool {
         (0..N_JOINTS).all(|i| q[i] >= self.links[i].limits[0] && q[i] <= self.links[i].limits[1])
     }
+
+    /// The least distance of `q` from a joint limit, rad (negative past one), and the joint
+    /// (0-based).
+    pub fn limit_margin(&self, q: &JointVector) -> (f64, usize) {
+        let mut least = (f64::INFINITY, 0);
+        for (j, link) in self.links.iter().enumerate() {
+            let [lo, hi] = link.limits;
+            let margin = (q[j] - lo).min(hi - q[j]);
+            if margin < least.0 {
+                least = (margin, j);
+            }
+        }
+        least
+    }
 }
 
 /// One link of the model as a [`Link`].

@@ -66,6 +66,9 @@ pub struct HoverConfig {
     pub max_joint_step_rad: f64,
     /// Least distance of the wrist from its singularity (`|q₅|`) at the checked samples, rad.
     pub min_wrist_angle_rad: f64,
+    /// Least distance of every joint from its limits at the checked samples, rad: room for the
+    /// joint control to correct the vehicle's motion (0: the limits themselves).
+    pub min_limit_margin_rad: f64,
     /// Samples checked: about this many, evenly spread.
     pub samples: usize,
     /// Expected resistance to the tool's motion in contact (soil, friction), N.
@@ -93,6 +96,7 @@ impl Default for HoverConfig {
             min_clearance_m: 0.45,
             max_joint_step_rad: 0.5,
             min_wrist_angle_rad: 0.1,
+            min_limit_margin_rad: 0.0,
             samples: 60,
             drag_n: 0.0,
             max_thrust_utilisation: 0.5,
@@ -129,6 +133,7 @@ impl HoverConfig {
                 shown(self.min_wrist_angle_rad)
             ),
         )?;
+        non_negative("sim.hover.min_limit_margin_rad", self.min_limit_margin_rad)?;
         non_negative("sim.hover.drag_n", self.drag_n)?;
         for (key, value, of) in [
             (
@@ -305,6 +310,12 @@ fn wrist_clear(q: &JointVector, side: f64, cfg: &HoverConfig) -> bool {
     q[4].abs() >= cfg.min_wrist_angle_rad && q[4] * side > 0.0
 }
 
+/// Whether `q` keeps `min_limit_margin_rad` from every joint limit (at 0, the IK's solutions
+/// are within the limits up to its round-off).
+fn limits_clear(arm: &Arm, q: &JointVector, cfg: &HoverConfig) -> bool {
+    cfg.min_limit_margin_rad == 0.0 || arm.limit_margin(q).0 >= cfg.min_limit_margin_rad
+}
+
 /// Why a branch cannot go on to the next sample.
 enum Stop {
     /// No IK solution within the joint limits.
@@ -315,11 +326,14 @@ enum Stop {
     Through,
     /// The wrist would come this near its singularity, rad.
     Near(f64),
+    /// A joint (0-based) would come this near its limit, rad.
+    NearLimit(f64, usize),
 }
 
 /// The branch at `q`, its wrist on `side`, moved on to `target` (base frame): the IK solution
-/// nearest `q`, unless it is out of reach, a joint jumps by more than `max_joint_step_rad`, or
-/// the wrist leaves `min_wrist_angle_rad` from its singularity on that side.
+/// nearest `q`, unless it is out of reach, a joint jumps by more than `max_joint_step_rad`, the
+/// wrist leaves `min_wrist_angle_rad` from its singularity on that side, or a joint
+/// `min_limit_margin_rad` from its limits.
 fn step(
     arm: &Arm,
     target: &Isometry3<f64>,
@@ -337,6 +351,9 @@ fn step(
         Err(Stop::Through)
     } else if !wrist_clear(&next, side, cfg) {
         Err(Stop::Near(next[4].abs()))
+    } else if !limits_clear(arm, &next, cfg) {
+        let (margin, joint) = arm.limit_margin(&next);
+        Err(Stop::NearLimit(margin, joint))
     } else {
         Ok(next)
     })
@@ -374,6 +391,12 @@ fn follow_every_sample(
                 "brings the wrist within {} rad of its singularity (sim.hover.min_wrist_angle_rad {})",
                 shown_to(q5, 3),
                 shown(cfg.min_wrist_angle_rad)
+            ),
+            Err(Stop::NearLimit(margin, joint)) => format!(
+                "brings joint {} within {} rad of its limit (sim.hover.min_limit_margin_rad {})",
+                joint + 1,
+                shown_to(margin, 3),
+                shown(cfg.min_limit_margin_rad)
             ),
         };
         return Err(Error::failed(
@@ -452,7 +475,7 @@ fn follow(
         let side = q0[4].signum();
         let mut r = Reach {
             q_start: *q0,
-            reached: usize::from(wrist_clear(q0, side, cfg)),
+            reached: usize::from(wrist_clear(q0, side, cfg) && limits_clear(arm, q0, cfg)),
             manipulability: arm.manipulability_at(&in_base[0], &q)?,
             thrust: loads[0],
             drive: drive_at(0, &q),
@@ -632,7 +655,8 @@ pub fn choose(
             Err(Error::failed(
                 "hover",
                 format!(
-                    "no hover point reaches the whole trajectory within the joint limits and with the wrist at least {} rad from its singularity (sim.hover.min_wrist_angle_rad): the best of {evaluated} candidates follows it to t = {:.2} s and the point at t = {:.2} s ({} phase, at {} m) is out of reach",
+                    "no hover point reaches the whole trajectory with every joint at least {} rad within its limits (sim.hover.min_limit_margin_rad) and the wrist at least {} rad from its singularity (sim.hover.min_wrist_angle_rad): the best of {evaluated} candidates follows it to t = {:.2} s and the point at t = {:.2} s ({} phase, at {} m) is out of reach",
+                    shown(cfg.min_limit_margin_rad),
                     shown(cfg.min_wrist_angle_rad),
                     trajectory.samples[idx[reached.saturating_sub(1)]].t,
                     fail.t,

@@ -757,7 +757,6 @@ pub fn simulate(
     let (mut unreachable, mut saturated) = (0usize, 0usize);
     // The arm's least distance from a joint limit (the plant's joints, for the record), rad,
     // and the joint.
-    let limits: Vec<[f64; 2]> = plant_model.arm.links.iter().map(|l| l.joint_limits).collect();
     let mut limit_margin = (f64::INFINITY, 0usize);
     let wall = std::time::Instant::now();
     let mut k = 0usize;
@@ -919,11 +918,9 @@ pub fn simulate(
                 in_contact: cs.in_contact(),
             }));
         }
-        for (j, [lo, hi]) in limits.iter().enumerate() {
-            let margin = (state.q[j] - lo).min(hi - state.q[j]);
-            if margin < limit_margin.0 {
-                limit_margin = (margin, j);
-            }
+        let margin = plant.system.arm.limit_margin(&state.q);
+        if margin.0 < limit_margin.0 {
+            limit_margin = margin;
         }
         rec.observe(&record::Observation {
             phase: s.phase,
