@@ -888,6 +888,53 @@ mod tests {
         );
     }
 
+    /// With `min_limit_margin_rad`, the chosen station keeps every joint that far inside its
+    /// limits at every sample (followed independently from the chosen start), where the free
+    /// choice came nearer; a margin no station can keep is a failure naming the key.
+    #[test]
+    fn the_joints_keep_their_margin_from_the_limits() {
+        let (mb, traj, cfg) = coarse_stroke();
+        let closest = |h: &Hover| {
+            let t_base_world = (h.t_world_body * mb.arm.t_body_base()).inverse();
+            let mut q = h.q_start;
+            let mut least = f64::INFINITY;
+            for s in &traj.samples {
+                q = mb
+                    .arm
+                    .ik_nearest(&(t_base_world * s.pose()), &q)
+                    .unwrap()
+                    .unwrap();
+                for (j, link) in mb.arm.links.iter().enumerate() {
+                    let [lo, hi] = link.limits;
+                    least = least.min(q[j] - lo).min(hi - q[j]);
+                }
+            }
+            least
+        };
+        let free = closest(&choose(&mb, &thrusters(), &traj, &cfg).unwrap());
+        let margin = free + 0.1;
+        let kept = HoverConfig {
+            min_limit_margin_rad: margin,
+            ..cfg
+        };
+        let least = closest(&choose(&mb, &thrusters(), &traj, &kept).unwrap());
+        assert!(
+            least >= margin,
+            "closest {least} rad, margin {margin} (free {free})"
+        );
+        let wide = HoverConfig {
+            min_limit_margin_rad: 2.0,
+            ..cfg
+        };
+        let e = choose(&mb, &thrusters(), &traj, &wide).unwrap_err();
+        assert!(e.to_string().contains("sim.hover.min_limit_margin_rad"), "{e}");
+        let bad = HoverConfig {
+            min_limit_margin_rad: -0.1,
+            ..cfg
+        };
+        assert!(bad.validate().is_err());
+    }
+
     /// A tool held at one point but for a 5 m excursion over samples 47–49 of 101, between
     /// those the search checks (`samples = 4`: every 26th): every station reaches the checked
     /// ones, and following the chosen one through every sample finds the excursion out of
