@@ -3,6 +3,7 @@
 //! ends as killed by it, after removing the file it was writing).
 
 use clap::Parser;
+use std::io::Write;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -18,7 +19,10 @@ fn main() -> ExitCode {
         // A usage error in one line, as every other error: clap's message up to its usage
         // lines, and where to look.
         Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
-            eprintln!("error: usage: a command is required (see uvms --help)");
+            let _ = writeln!(
+                std::io::stderr(),
+                "error: usage: a command is required (see uvms --help)"
+            );
             return ExitCode::from(2);
         }
         Err(e) => {
@@ -31,14 +35,15 @@ fn main() -> ExitCode {
                 .collect();
             let message = message.join(" ");
             let message = message.strip_prefix("error: ").unwrap_or(&message);
-            eprintln!("error: usage: {message} (see uvms --help)");
+            let _ = writeln!(std::io::stderr(), "error: usage: {message} (see uvms --help)");
             return ExitCode::from(2);
         }
     };
     match uvms::cli::execute(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            // A closed stderr is no reason to panic: the exit code still tells.
+            let _ = writeln!(std::io::stderr(), "error: {e}");
             ExitCode::from(e.exit_code() as u8)
         }
     }
@@ -53,7 +58,7 @@ fn main() -> ExitCode {
 fn stop_cleanly_on_signals() {
     use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
     use signal_hook::low_level::{emulate_default_handler, signal_name};
-    use std::io::{IsTerminal, Write};
+    use std::io::IsTerminal;
     let wanted: Vec<i32> = [SIGINT, SIGTERM, SIGHUP]
         .into_iter()
         .filter(|s| !uvms::output::signal_ignored_at_start(*s))

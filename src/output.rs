@@ -24,9 +24,16 @@ use std::sync::{Mutex, MutexGuard, PoisonError};
 /// off as it is renamed into place or removed, each under the lock.
 static UNFINISHED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
+/// The folders this process made for its output folders, innermost first, while they live.
+static CREATED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
 fn unfinished() -> MutexGuard<'static, Vec<PathBuf>> {
     // A writer that panicked holding the lock left the list as it was: still the truth.
     UNFINISHED.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+fn created() -> MutexGuard<'static, Vec<PathBuf>> {
+    CREATED.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
 /// A temporary file being written, on the list from its creation: renamed into place, or
@@ -64,12 +71,17 @@ impl Drop for Unfinished {
 }
 
 /// Removes the temporary files this process is writing, for a run interrupted by a signal,
-/// and returns the lock on their list: held until the process exits, no file is created or
-/// renamed into place after it. A product already renamed is complete and stays.
+/// and the folders it made for its output that are left empty, and returns the lock on the
+/// files' list: held until the process exits, no file is created or renamed into place after
+/// it. A product already renamed is complete and stays.
 pub fn remove_unfinished() -> MutexGuard<'static, Vec<PathBuf>> {
     let mut list = unfinished();
     for tmp in list.drain(..) {
         let _ = fs::remove_file(tmp);
+    }
+    // Innermost first: a folder that holds anything stays, and so do those around it.
+    for dir in created().iter() {
+        let _ = fs::remove_dir(dir);
     }
     list
 }
@@ -123,6 +135,8 @@ impl Drop for OutDir {
                 }
             }
         }
+        let mut listed = created();
+        listed.retain(|d| !self.created.contains(d));
         for dir in &self.created {
             // Stops at the first folder that holds anything.
             if fs::remove_dir(dir).is_err() {
@@ -193,7 +207,10 @@ impl OutDir {
         // made meanwhile, nor `new/..`, which is there once `new` is).
         for d in missing.into_iter().rev() {
             match fs::create_dir(d) {
-                Ok(()) => out.created.insert(0, d.to_path_buf()),
+                Ok(()) => {
+                    out.created.insert(0, d.to_path_buf());
+                    created().insert(0, d.to_path_buf());
+                }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
                 Err(e) => {
                     return Err(Error::input(

@@ -72,3 +72,31 @@ fn json_of_a_real_scan() {
         assert!((hi[k].as_f64().unwrap() - h).abs() < 5e-4);
     }
 }
+
+/// A reader that has gone (a pipe into `head`) ends the command quietly, without a panic: the
+/// report and the JSON are written into a closed pipe.
+#[test]
+fn a_closed_pipe_is_no_panic() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/valid_quad.ply");
+    // The JSON into a closed stdout, then the report into a closed stderr.
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = Command::new(common::uvms_bin())
+        .args(["info", "--json"])
+        .arg(&path)
+        .stdout(writer)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let status = Command::new(common::uvms_bin())
+        .arg("info")
+        .arg(&path)
+        .stderr(writer)
+        .status()
+        .unwrap();
+    assert_eq!(status.code(), Some(0));
+}

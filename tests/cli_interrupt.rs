@@ -22,10 +22,13 @@ fn ply_being_written(dir: &Path) -> bool {
     })
 }
 
-/// The temporary files (`.NAME.PID.tmp`) in `dir`.
+/// The temporary files (`.NAME.PID.tmp`) in `dir` (none if it is gone: a run stopped before its
+/// first product removes the folder it made).
 fn temporaries(dir: &Path) -> Vec<String> {
-    fs::read_dir(dir)
-        .unwrap()
+    let Ok(entries) = fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    entries
         .filter_map(|e| e.ok()?.file_name().into_string().ok())
         .filter(|n| n.ends_with(".tmp"))
         .collect()
@@ -98,7 +101,7 @@ fn interrupt_while_writing(signal: &str, number: i32) -> bool {
     // The run's last files are written after its products: none of them can have been.
     assert!(!out.join("summary.json").exists() && !out.join("config.toml").exists());
     // Whatever it had finished is whole.
-    for entry in fs::read_dir(&out).unwrap() {
+    for entry in fs::read_dir(&out).into_iter().flatten() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "ply") {
             read_ply(&path).unwrap_or_else(|e| panic!("{signal}: {e}"));
@@ -146,4 +149,38 @@ fn a_signal_ignored_at_the_start_stays_ignored() {
         caught
     });
     assert!(caught, "no PLY file caught being written in ten runs");
+}
+
+/// Stopped before it writes anything, the run removes the folders it made for `--out`: the
+/// signal comes as soon as the folder appears, while the scene is still being made.
+#[test]
+fn a_signal_before_any_file_removes_the_folders_made_for_out() {
+    if uvms::output::signal_ignored_at_start(2) {
+        eprintln!("note: SIGINT is ignored in this test process (a background job?): skipped");
+        return;
+    }
+    let caught = (0..10).any(|_| {
+        let dir = tempfile::tempdir().unwrap();
+        let made = dir.path().join("a");
+        let out = made.join("b");
+        let mut child = synth(&out, "");
+        let start = Instant::now();
+        while !out.exists() {
+            if child.try_wait().unwrap().is_some() || start.elapsed() > Duration::from_secs(300) {
+                break;
+            }
+            std::thread::sleep(Duration::from_micros(200));
+        }
+        send("INT", &child);
+        let output = child.wait_with_output().unwrap();
+        // Caught before the first product: nothing is left, not even the folders.
+        let wrote = out.exists() && fs::read_dir(&out).unwrap().next().is_some();
+        if output.status.success() || wrote {
+            return false;
+        }
+        assert_eq!(output.status.signal(), Some(2), "{output:?}");
+        assert!(!made.exists(), "the folders made for --out were left");
+        true
+    });
+    assert!(caught, "no run caught before its first file in ten runs");
 }

@@ -385,6 +385,22 @@ fn a_reference_file_replaces_the_generated_bottle() {
     assert!(a.scan == b.scan, "the scan through the PLY file differs");
     assert_eq!(a.truth.t_scan_reference, b.truth.t_scan_reference);
     assert_eq!(b.truth.object.as_ref().unwrap().model, path.display().to_string());
+    // A reference file that `uvms synth` would write over (a product's name in its --out) is
+    // refused, and left as it was.
+    let before = std::fs::read(&path).unwrap();
+    for name in ["reference.ply", "scan.ply"] {
+        let product = dir.path().join(name);
+        std::fs::copy(&path, &product).unwrap();
+        let mut into_out = generated.clone();
+        into_out.object.reference = Some(product.clone());
+        let cfg = write_config(dir.path(), &into_out);
+        let out = dir.path().display().to_string();
+        let o = run(&["synth", "--quiet", "--config", &cfg, "--out", &out]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains("is an input"), "{stderr}");
+        assert_eq!(std::fs::read(&product).unwrap(), before, "{name} overwritten");
+    }
     // A missing file is bad input naming the key.
     from_file.object.reference = Some(dir.path().join("missing.ply"));
     let e = synthesize(&from_file).unwrap_err();

@@ -202,12 +202,24 @@ pub fn execute(cli: Cli) -> Result<()> {
         out.write_json("summary.json", &report.summary)?;
     }
     if !ctx.quiet && !report.text.is_empty() {
-        eprint!("{}", report.text);
+        emit(&mut std::io::stderr(), &report.text, "stderr")?;
     }
     if ctx.json {
-        println!("{}", report.summary);
+        emit(&mut std::io::stdout(), &format!("{}\n", report.summary), "stdout")?;
     }
     report.failure.map_or(Ok(()), Err)
+}
+
+/// Writes `text` to `stream`: a reader that has gone (a pipe into `head`) is no error, the
+/// products being written; any other failure is.
+fn emit(stream: &mut dyn std::io::Write, text: &str, name: &str) -> Result<()> {
+    match stream.write_all(text.as_bytes()).and_then(|()| stream.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(Error::failed(
+            "output",
+            format!("cannot write the report to {name}: {e}"),
+        )),
+        _ => Ok(()),
+    }
 }
 
 #[cfg(test)]

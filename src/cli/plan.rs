@@ -9,7 +9,7 @@
 //! sediment): the scan is cleaned, the seabed plane found and its inliers triangulated.
 
 use super::check::{self, check_summary, check_text, init_file, init_mode, write_check_products};
-use super::segment::{load_reference, parse_vector3, segmentation_summary};
+use super::segment::{load_reference, parse_vector3, scan_text, segmentation_summary};
 use super::{Ctx, Report, config_origin};
 use crate::error::{Error, Result};
 use crate::frames::read_pose_file;
@@ -94,9 +94,10 @@ pub fn plan_text(r: &PlanReport) -> String {
     let [approach, dwell, contact, retreat] = r.phase_durations_s;
     let _ = writeln!(
         t,
-        "plan         {} pattern: {} rows, {:.3} m in contact at {:.3} m/s, {} samples every {:.2} mm",
+        "plan         {} pattern: {} row{}, {:.3} m in contact at {:.3} m/s, {} samples every {:.2} mm",
         r.pattern,
         r.rows,
+        if r.rows == 1 { "" } else { "s" },
         r.length_m,
         r.speed_m_s,
         r.contact_points,
@@ -110,9 +111,15 @@ pub fn plan_text(r: &PlanReport) -> String {
         "  duration                       {:.1} s (approach {approach:.1}, dwell {dwell:.1}, contact {contact:.1}, retreat {retreat:.1})",
         r.duration_s
     );
+    // A line's holes are filled from the seabed's plane, the others' from the reference.
+    let filled_from = if r.pattern == "line" {
+        "on the seabed's plane (scan holes)"
+    } else {
+        "on the reference (scan holes)"
+    };
     let _ = writeln!(
         t,
-        "  on the reference (scan holes)  {} of {} samples",
+        "  {filled_from:<30} {} of {} samples",
         r.fallback_points, r.contact_points
     );
     let _ = writeln!(
@@ -352,8 +359,9 @@ pub fn plan_stage(
         }
         None => {
             // Soil sampling on a sediment patch: the seabed is all there is.
-            let (cloud, _) = clean(&scan, &pc.clean, &camera)?;
+            let (cloud, cleaning) = clean(&scan, &pc.clean, &camera)?;
             let fit = find_seabed(&cloud.points, args.up.map(Vector3::from).as_ref(), &pc.seabed)?;
+            scan_text(cleaning.input, cloud.len(), Some(&fit), &mut text);
             let seabed = seabed_surface(&cloud.points, &fit.inliers, pc)?;
             summary["seabed_plane"] = json!(fit.plane.coefficients());
             summary["seabed_inliers"] = json!(fit.inliers.len());

@@ -9,6 +9,7 @@ use crate::io::ply::{read_cloud, read_ply, write_cloud};
 use crate::output::OutDir;
 use crate::perception::{PerceptionConfig, Segmentation, segment};
 use crate::register::ReferenceModel;
+use crate::segment::seabed::SeabedFit;
 use nalgebra::Vector3;
 use serde_json::{Value, json};
 use std::fmt::Write;
@@ -145,15 +146,11 @@ pub fn segmentation_summary(seg: &Segmentation) -> Value {
     v
 }
 
-/// Human-readable lines about a segmentation.
-pub fn segmentation_text(seg: &Segmentation, text: &mut String) {
-    let _ = writeln!(
-        text,
-        "scan         {} points, {} after cleaning",
-        seg.cleaning.input,
-        seg.cloud.len()
-    );
-    match &seg.seabed {
+/// The scan's and the seabed's lines of the report: the points read and left after cleaning,
+/// the seabed's plane (`None`: the stage was off).
+pub fn scan_text(read: usize, cleaned: usize, seabed: Option<&SeabedFit>, text: &mut String) {
+    let _ = writeln!(text, "scan         {read} points, {cleaned} after cleaning");
+    match seabed {
         Some(f) => {
             let [a, b, c, d] = f.plane.coefficients();
             let _ = writeln!(
@@ -170,13 +167,17 @@ pub fn segmentation_text(seg: &Segmentation, text: &mut String) {
             let _ = writeln!(text, "seabed       (stage off)");
         }
     }
+}
+
+/// Human-readable lines about a segmentation.
+pub fn segmentation_text(seg: &Segmentation, text: &mut String) {
+    scan_text(seg.cleaning.input, seg.cloud.len(), seg.seabed.as_ref(), text);
     let _ = writeln!(
         text,
         "clusters     {} ({} points above the seabed)",
         seg.clusters.len(),
         seg.object_side.len()
-    );
-    for (k, c) in seg.clusters.iter().enumerate().take(10) {
+    );    for (k, c) in seg.clusters.iter().enumerate().take(10) {
         let s = c.shape.spans;
         let _ = writeln!(
             text,

@@ -80,27 +80,34 @@ pub fn sim_text(s: &SimSummary) -> String {
         "  arm        closest to a joint limit: joint {} at {:.3} rad",
         s.joint_limit_margin_joint, s.joint_limit_margin_rad
     );
-    let f = |v: Option<f64>| v.map_or("never".to_string(), |v| format!("{v:.2} s"));
-    // No settled force to show (never touched, or not for long): said so, not "NaN N".
-    let settled = if s.figures.force_settled_mean_n.is_finite() {
-        format!(
-            "settled mean {:.2} N (min {:.2}, RMS error {:.2})",
-            s.figures.force_settled_mean_n, s.figures.force_settled_min_n, s.figures.force_rms_error_n
-        )
+    let fig = &s.figures;
+    // No settled force to show (never touched, or not for long): said so, not "NaN N". A path
+    // without a force setpoint (soil: the tool pushed by position alone) has no error to it.
+    let force = match (fig.force_settled_mean_n.is_finite(), fig.force_setpoint_n > 0.0) {
+        (false, _) => "no settled force".to_string(),
+        (true, true) => format!(
+            "settled mean {:.2} N (min {:.2}, RMS error {:.2}), overshoot {:.2} N",
+            fig.force_settled_mean_n, fig.force_settled_min_n, fig.force_rms_error_n, fig.force_overshoot_n
+        ),
+        (true, false) => format!(
+            "settled mean {:.2} N (min {:.2})",
+            fig.force_settled_mean_n, fig.force_settled_min_n
+        ),
+    };
+    let setpoint = if fig.force_setpoint_n > 0.0 {
+        format!("setpoint {:.1} N", fig.force_setpoint_n)
     } else {
-        "no settled force".to_string()
+        "no setpoint (the path followed by position)".to_string()
+    };
+    let _ = writeln!(t, "  force      {setpoint}, {force}, max {:.2} N", fig.force_max_n);
+    let contact = match fig.first_contact_s {
+        Some(first) => format!("first at {first:.2} s, lost for {:.3} s after it", fig.contact_lost_s),
+        None => "never made".to_string(),
     };
     let _ = writeln!(
         t,
-        "  force      setpoint {:.1} N, {settled}, overshoot {:.2} N, max {:.2} N",
-        s.figures.force_setpoint_n, s.figures.force_overshoot_n, s.figures.force_max_n
-    );
-    let _ = writeln!(
-        t,
-        "  contact    first at {}, lost for {:.3} s after it; largest contact force {:.1} N",
-        f(s.figures.first_contact_s),
-        s.figures.contact_lost_s,
-        s.figures.contact_force_max_n
+        "  contact    {contact}; largest contact force {:.1} N",
+        fig.contact_force_max_n
     );
     let _ = writeln!(
         t,

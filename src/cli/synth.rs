@@ -54,7 +54,12 @@ pub fn run(args: &SynthArgs, _ctx: &Ctx) -> Result<Report> {
         (e, _) => e,
     };
     cfg.validate().map_err(in_file)?;
-    let inputs: Vec<&std::path::Path> = args.config.iter().map(|p| p.as_path()).collect();
+    let inputs: Vec<&std::path::Path> = args
+        .config
+        .iter()
+        .chain(&cfg.object.reference)
+        .map(|p| p.as_path())
+        .collect();
     let out = OutDir::create(
         &args.out,
         &inputs,
