@@ -109,6 +109,11 @@ fn bad_input_exits_2_naming_the_flag() {
             vec!["id", "--q", "0,0,0,0,0,0", "--qd", "1e200,0,0,0,0,0"],
             "--qd",
         ),
+        // Faster than any sea (the simulation's bound).
+        (
+            vec!["id", "--q", "0,0,0,0,0,0", "--current", "100,0,0"],
+            "--current",
+        ),
         // A usage error.
         (vec!["fk", "--q"], "--q"),
     ] {

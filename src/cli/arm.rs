@@ -148,6 +148,7 @@ pub fn run(args: &ArmArgs, _ctx: &Ctx) -> Result<Report> {
                 base.gravity = Vector3::from(g);
             }
             if let Some(c) = args.current {
+                crate::sim::check_current("--current", c)?;
                 base.current = Vector3::from(c);
             }
             let id = arm.inverse_dynamics(&q, &qd, &qdd, &base, None);

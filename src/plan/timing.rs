@@ -143,17 +143,17 @@ impl TimingConfig {
 /// kept) and `h`.
 ///
 /// # Errors
-/// [`Error::Failed`] if the path is shorter than half a spacing.
+/// [`Error::Input`] (naming `timing.speed_m_s`) if the path is shorter than half a spacing.
 pub fn resample(points: &[PathPoint], spacing: f64) -> Result<(Vec<PathPoint>, f64)> {
     // (A fold from +0: an empty sum of floats is −0.)
     let length = points
         .windows(2)
         .fold(0.0, |sum, w| sum + (w[1].point - w[0].point).norm());
     if points.len() < 2 || length < spacing / 2.0 {
-        return Err(Error::failed(
-            "plan",
+        return Err(Error::input(
+            "timing.speed_m_s",
             format!(
-                "the projected path is {:.1} mm long, too short to sample at {} mm",
+                "the projected path is {:.1} mm long, too short to sample at {} mm (speed_m_s times sample_period_s): lower either",
                 length * 1e3,
                 shown(spacing * 1e3)
             ),
