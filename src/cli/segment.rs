@@ -177,7 +177,8 @@ pub fn segmentation_text(seg: &Segmentation, text: &mut String) {
         "clusters     {} ({} points above the seabed)",
         seg.clusters.len(),
         seg.object_side.len()
-    );    for (k, c) in seg.clusters.iter().enumerate().take(10) {
+    );
+    for (k, c) in seg.clusters.iter().enumerate().take(10) {
         let s = c.shape.spans;
         let _ = writeln!(
             text,

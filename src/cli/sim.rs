@@ -99,9 +99,16 @@ pub fn sim_text(s: &SimSummary) -> String {
     } else {
         "no setpoint (the path followed by position)".to_string()
     };
-    let _ = writeln!(t, "  force      {setpoint}, {force}, max {:.2} N", fig.force_max_n);
+    let _ = writeln!(
+        t,
+        "  force      {setpoint}, {force}, max {:.2} N",
+        fig.force_max_n
+    );
     let contact = match fig.first_contact_s {
-        Some(first) => format!("first at {first:.2} s, lost for {:.3} s after it", fig.contact_lost_s),
+        Some(first) => format!(
+            "first at {first:.2} s, lost for {:.3} s after it",
+            fig.contact_lost_s
+        ),
         None => "never made".to_string(),
     };
     let _ = writeln!(
