@@ -8,7 +8,8 @@
 //! the branch is followed along the trajectory (every `stride`-th sample, then the analytic IK
 //! nearest the previous solution); it reaches the trajectory if every sample has a solution
 //! within the joint limits, no joint jumps by more than `max_joint_step_rad` between
-//! samples (no flip of the wrist or elbow) and the wrist keeps `min_wrist_angle_rad` from its
+//! samples (no flip of the wrist or elbow), every joint keeps `min_limit_margin_rad` inside its
+//! limits (0 by default) and the wrist keeps `min_wrist_angle_rad` from its
 //! singularity (`|q₅|`, on one side of it throughout: near it the wrist's rates grow as
 //! `1/sin q₅` of the tool's turning, and a station whose ring passed 0.4 mrad from it took the
 //! bottle's tool 10 mm off at 90 N). The vehicle must also hold the contact: at each
@@ -655,8 +656,15 @@ pub fn choose(
             Err(Error::failed(
                 "hover",
                 format!(
-                    "no hover point reaches the whole trajectory with every joint at least {} rad within its limits (sim.hover.min_limit_margin_rad) and the wrist at least {} rad from its singularity (sim.hover.min_wrist_angle_rad): the best of {evaluated} candidates follows it to t = {:.2} s and the point at t = {:.2} s ({} phase, at {} m) is out of reach",
-                    shown(cfg.min_limit_margin_rad),
+                    "no hover point reaches the whole trajectory within the joint limits{} and with the wrist at least {} rad from its singularity (sim.hover.min_wrist_angle_rad): the best of {evaluated} candidates follows it to t = {:.2} s and the point at t = {:.2} s ({} phase, at {} m) is out of reach",
+                    if cfg.min_limit_margin_rad > 0.0 {
+                        format!(
+                            " (every joint at least {} rad inside them, sim.hover.min_limit_margin_rad)",
+                            shown(cfg.min_limit_margin_rad)
+                        )
+                    } else {
+                        String::new()
+                    },
                     shown(cfg.min_wrist_angle_rad),
                     trajectory.samples[idx[reached.saturating_sub(1)]].t,
                     fail.t,
