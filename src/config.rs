@@ -243,6 +243,13 @@ pub fn shown(v: f64) -> String {
     }
 }
 
+/// [`shown`] of `v` rounded to `digits` significant digits: a size of any magnitude in a
+/// message, never `0.000`.
+pub fn shown_significant(v: f64, digits: usize) -> String {
+    let rounded: f64 = format!("{:.*e}", digits.saturating_sub(1), v).parse().unwrap_or(v);
+    shown(rounded)
+}
+
 /// Whether `v` is written out in full in a message (zero, not finite, or of an everyday
 /// magnitude) rather than in exponent form.
 fn everyday(v: f64) -> bool {
@@ -489,6 +496,11 @@ mod tests {
         );
         let msg = non_negative("k", -1e300).unwrap_err().to_string();
         assert!(msg.ends_with("got -1e300"), "{msg}");
+        // A size of any magnitude to its significant digits, never 0.000.
+        assert_eq!(
+            [0.000_254_9, 170.33, 2.5e-7, 0.999_96].map(|v| shown_significant(v, 3)),
+            ["0.000255", "170", "2.5e-7", "1"]
+        );
     }
 
     #[test]

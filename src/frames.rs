@@ -40,10 +40,15 @@ pub fn pose_from_rows(rows: &[[f64; 4]; 4], what: &str) -> Result<Pose> {
         return Err(Error::input(what, "pose matrix's last row is not 0 0 0 1"));
     }
     let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
-    if (r.transpose() * r - Matrix3::identity()).abs().max() > 1e-6 || (r.determinant() - 1.0).abs() > 1e-6 {
+    let (skew, det) = ((r.transpose() * r - Matrix3::identity()).abs().max(), r.determinant());
+    if skew > 1e-6 || (det - 1.0).abs() > 1e-6 {
         return Err(Error::input(
             what,
-            "pose matrix's rotation block is not a rotation",
+            format!(
+                "pose matrix's rotation block is not a rotation to 1e-6: RᵀR is off the identity by up to {} and det R is {} (entries rounded to fewer than 7 decimals?)",
+                crate::config::shown_significant(skew, 2),
+                crate::config::shown_significant(det, 7)
+            ),
         ));
     }
     let t = Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]);
@@ -239,6 +244,11 @@ mod tests {
         let mut rows = pose_to_rows(&Pose::identity());
         rows[0][0] = 2.0;
         assert_eq!(pose_from_rows(&rows, "t").unwrap_err().exit_code(), 2);
+        // A rotation rounded to four decimals is off by some 1e-5: the message says how far.
+        let turned = pose_to_rows(&Isometry3::new(Vector3::zeros(), Vector3::new(0.3, -0.5, 0.2)));
+        let rounded = turned.map(|row| row.map(|v| (v * 1e4).round() / 1e4));
+        let e = pose_from_rows(&rounded, "t").unwrap_err().to_string();
+        assert!(e.contains("off the identity by up to") && e.contains("e-5"), "{e}");
     }
 
     /// Finite but past any scene: the errors against it would overflow (a ground truth 1e300 m

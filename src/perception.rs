@@ -445,10 +445,17 @@ pub fn check(
         if let Some(shape) = principal_axes(&cloud.points, cfg.cluster.span_quantile)
             && span_score(&shape.spans, &model.shape.spans, &cfg.select).is_none()
         {
+            // A thousand times the reference's size is the scan's units, not its object.
+            let ratio = shape.spans.max() / model.shape.spans.max();
+            let why = if (300.0..3000.0).contains(&ratio) {
+                "the scan in millimetres? (PLY coordinates must be metres)"
+            } else {
+                "not the reference's object?"
+            };
             return Err(Error::failed(
                 "select",
                 format!(
-                    "--whole-scan: the scan's {} m does not fit the reference's {} m within a factor {} (select.max_span_ratio): not the reference's object?",
+                    "--whole-scan: the scan's {} m does not fit the reference's {} m within a factor {} (select.max_span_ratio): {why}",
                     spans_text(&shape.spans),
                     spans_text(&model.shape.spans),
                     cfg.select.max_span_ratio

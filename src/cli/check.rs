@@ -181,7 +181,7 @@ pub fn check_text(r: &CheckResult) -> String {
         row(
             "axis error",
             format!(
-                "{:.4}° (the model's distinct principal axis, a body of revolution's own axis: the rotation error without the turn about it)",
+                "{:.4}° (the model's most distinct principal axis, as a body of revolution's own axis: the rotation error without the turn about it)",
                 e.axis_error_deg
             ),
         );

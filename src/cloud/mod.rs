@@ -80,7 +80,7 @@ pub fn object_size(what: &str, points: &[Point3<f64>]) -> Result<(Point3<f64>, P
             what,
             format!(
                 "the model is {} m across; expected 0.01 m to 20 m (units must be metres)",
-                crate::config::shown_to(size, 3)
+                crate::config::shown_significant(size, 3)
             ),
         ))
     }
