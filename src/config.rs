@@ -246,7 +246,9 @@ pub fn shown(v: f64) -> String {
 /// [`shown`] of `v` rounded to `digits` significant digits: a size of any magnitude in a
 /// message, never `0.000`.
 pub fn shown_significant(v: f64, digits: usize) -> String {
-    let rounded: f64 = format!("{:.*e}", digits.saturating_sub(1), v).parse().unwrap_or(v);
+    let rounded: f64 = format!("{:.*e}", digits.saturating_sub(1), v)
+        .parse()
+        .unwrap_or(v);
     shown(rounded)
 }
 

@@ -40,7 +40,10 @@ pub fn pose_from_rows(rows: &[[f64; 4]; 4], what: &str) -> Result<Pose> {
         return Err(Error::input(what, "pose matrix's last row is not 0 0 0 1"));
     }
     let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
-    let (skew, det) = ((r.transpose() * r - Matrix3::identity()).abs().max(), r.determinant());
+    let (skew, det) = (
+        (r.transpose() * r - Matrix3::identity()).abs().max(),
+        r.determinant(),
+    );
     if skew > 1e-6 || (det - 1.0).abs() > 1e-6 {
         return Err(Error::input(
             what,
@@ -248,7 +251,10 @@ mod tests {
         let turned = pose_to_rows(&Isometry3::new(Vector3::zeros(), Vector3::new(0.3, -0.5, 0.2)));
         let rounded = turned.map(|row| row.map(|v| (v * 1e4).round() / 1e4));
         let e = pose_from_rows(&rounded, "t").unwrap_err().to_string();
-        assert!(e.contains("off the identity by up to") && e.contains("e-5"), "{e}");
+        assert!(
+            e.contains("off the identity by up to") && e.contains("e-5"),
+            "{e}"
+        );
     }
 
     /// Finite but past any scene: the errors against it would overflow (a ground truth 1e300 m

@@ -261,7 +261,10 @@ fn no_cluster_fitting_the_reference_is_exit_1() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     // The cube in millimetres against itself in metres: the units are named, not the object.
     let in_mm = dir.path().join("cube_mm.ply");
-    write_ply_points(&in_mm, &cube.iter().map(|p| p.map(|v| 1e3 * v)).collect::<Vec<_>>());
+    write_ply_points(
+        &in_mm,
+        &cube.iter().map(|p| p.map(|v| 1e3 * v)).collect::<Vec<_>>(),
+    );
     let (scan, reference) = (in_mm.to_str().unwrap(), model.to_str().unwrap());
     let o = run(&["check", scan, "--reference", reference, "--whole-scan"]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));

@@ -862,6 +862,23 @@ mod tests {
         assert!(e.to_string().contains("the thrusters cannot hold"), "{e}");
     }
 
+    /// The joints at every sample of `traj` from the station `h`, each the IK solution nearest
+    /// the last (an independent check of the search's branch).
+    fn followed(mb: &Multibody, traj: &Trajectory, h: &Hover) -> Vec<JointVector> {
+        let t_base_world = (h.t_world_body * mb.arm.t_body_base()).inverse();
+        let mut q = h.q_start;
+        let mut out = Vec::new();
+        for s in &traj.samples {
+            q = mb
+                .arm
+                .ik_nearest(&(t_base_world * s.pose()), &q)
+                .unwrap()
+                .unwrap();
+            out.push(q);
+        }
+        out
+    }
+
     /// The chosen station keeps the wrist `min_wrist_angle_rad` from its singularity at every
     /// sample (checked independently by following the IK from the chosen start), on one side.
     #[test]
@@ -869,18 +886,11 @@ mod tests {
         let (mb, traj, cfg) = coarse_stroke();
         let free = choose(&mb, &thrusters(), &traj, &cfg).unwrap();
         let wrist = |h: &Hover| {
-            let t_base_world = (h.t_world_body * mb.arm.t_body_base()).inverse();
-            let mut q = h.q_start;
-            let mut range = (f64::INFINITY, f64::NEG_INFINITY);
-            for s in &traj.samples {
-                q = mb
-                    .arm
-                    .ik_nearest(&(t_base_world * s.pose()), &q)
-                    .unwrap()
-                    .unwrap();
-                range = (range.0.min(q[4]), range.1.max(q[4]));
-            }
-            range
+            followed(&mb, &traj, h)
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                    (lo.min(q[4]), hi.max(q[4]))
+                })
         };
         let (lo, hi) = wrist(&free);
         let margin = 0.5 * (lo.abs().min(hi.abs()) + 1.5);
@@ -903,15 +913,8 @@ mod tests {
     fn the_joints_keep_their_margin_from_the_limits() {
         let (mb, traj, cfg) = coarse_stroke();
         let closest = |h: &Hover| {
-            let t_base_world = (h.t_world_body * mb.arm.t_body_base()).inverse();
-            let mut q = h.q_start;
             let mut least = f64::INFINITY;
-            for s in &traj.samples {
-                q = mb
-                    .arm
-                    .ik_nearest(&(t_base_world * s.pose()), &q)
-                    .unwrap()
-                    .unwrap();
+            for q in followed(&mb, &traj, h) {
                 for (j, link) in mb.arm.links.iter().enumerate() {
                     let [lo, hi] = link.limits;
                     least = least.min(q[j] - lo).min(hi - q[j]);
