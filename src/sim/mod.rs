@@ -631,7 +631,8 @@ pub fn simulate(
         }
         alloc
     };
-    // At rest the accelerometers read the specific force `−g` (`C` axes).
+    // At rest the accelerometers read the specific force `−g` (`C` axes), as the controllers
+    // expect it.
     let f_rest = h.rotation.inverse() * Vector3::new(0.0, 0.0, -g);
     let zero = JointVector::zeros();
     let mut trim = Vector6::zeros();
@@ -713,10 +714,13 @@ pub fn simulate(
             f_env_on_tool: Force::ZERO,
         },
     )?;
-    let mut truth_prev = truth_of(&plant.state, &first_eval, g, &plant.system.current);
+    // What the sensors read comes of the plant's gravity (the controllers' is the same value
+    // today, but theirs is a belief).
+    let g_plant = plant_model.environment.gravity;
+    let mut truth_prev = truth_of(&plant.state, &first_eval, g_plant, &plant.system.current);
     // NS levelled the accelerometers while the station was held.
     let at_rest = Truth {
-        specific_force: f_rest,
+        specific_force: h.rotation.inverse() * Vector3::new(0.0, 0.0, -g_plant),
         ..truth_prev
     };
     let levelling = (cfg.navigation.levelling_s * cfg.control_rate_hz).round() as usize;
@@ -986,7 +990,7 @@ pub fn simulate(
             )
         })?;
         if let Some(acc) = &first_acc {
-            truth_prev = truth_of(&state, acc, g, &plant.system.current);
+            truth_prev = truth_of(&state, acc, g_plant, &plant.system.current);
         }
         m_ez_true_prev = m_ez_true;
         f_env_true_prev = cs.wrench.lin;
