@@ -58,6 +58,10 @@ pub fn resolve_paths(cfg: &mut SimConfig, file: Option<&Path>) {
     cfg.surface = cfg.surface.as_deref().map(|p| relative_to(file, p));
 }
 
+/// A joint's least distance from its limits over a run below which the report suggests a
+/// station with more room, rad.
+const LITTLE_ROOM_RAD: f64 = 0.1;
+
 /// The figures of a run, as readable text.
 pub fn sim_text(s: &SimSummary) -> String {
     let mut t = String::new();
@@ -75,9 +79,16 @@ pub fn sim_text(s: &SimSummary) -> String {
         "sim          {:.1} s simulated at {:.0}× real time",
         s.simulated_s, s.realtime_factor
     );
+    // Under a tenth of a radian the vehicle's drift or a model's error can take a joint to its
+    // limit (README, "Model errors"): where to get more room is said.
+    let room = if s.joint_limit_margin_rad < LITTLE_ROOM_RAD {
+        " (little room: [sim.hover] min_limit_margin_rad chooses a station with more)"
+    } else {
+        ""
+    };
     let _ = writeln!(
         t,
-        "  arm        closest to a joint limit: joint {} at {:.3} rad",
+        "  arm        closest to a joint limit: joint {} at {:.3} rad{room}",
         s.joint_limit_margin_joint, s.joint_limit_margin_rad
     );
     let fig = &s.figures;
