@@ -110,6 +110,18 @@ fn sample_the_sediment_without_a_reference() {
     assert!(o.status.success(), "{}", stderr(&o));
     let traj = Trajectory::read_csv(&out.join("trajectory.csv")).unwrap();
     assert!(traj.phase(Phase::Contact).all(|s| s.force == 0.0));
+    // The report tells the seabed it planned on (the summary's), and where the line's scan
+    // holes were filled from.
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let inliers = summary["seabed_inliers"].as_u64().unwrap();
+    let text = stderr(&o);
+    assert!(text.starts_with("scan "), "{text}");
+    assert!(text.contains(&format!(" = 0, {inliers} inliers")), "{text}");
+    assert!(
+        text.contains("line pattern: 1 row,") && text.contains("on the seabed's plane (scan holes)"),
+        "{text}"
+    );
     // Without a reference the other patterns are a usage error.
     let o = run(&[
         "plan",
