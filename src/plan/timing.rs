@@ -143,17 +143,24 @@ impl TimingConfig {
 /// kept) and `h`.
 ///
 /// # Errors
-/// [`Error::Input`] (naming `timing.speed_m_s`) if the path is shorter than half a spacing.
+/// [`Error::Failed`] for a path of fewer than two points; [`Error::Input`] (naming
+/// `timing.speed_m_s`) if the path is shorter than half a spacing.
 pub fn resample(points: &[PathPoint], spacing: f64) -> Result<(Vec<PathPoint>, f64)> {
     // (A fold from +0: an empty sum of floats is −0.)
     let length = points
         .windows(2)
         .fold(0.0, |sum, w| sum + (w[1].point - w[0].point).norm());
-    if points.len() < 2 || length < spacing / 2.0 {
+    if points.len() < 2 {
+        return Err(Error::failed(
+            "plan",
+            "the projected path has fewer than two points",
+        ));
+    }
+    if length < spacing / 2.0 {
         return Err(Error::input(
             "timing.speed_m_s",
             format!(
-                "the projected path is {:.1} mm long, too short to sample at {} mm (speed_m_s times sample_period_s): lower either",
+                "the projected path is {:.1} mm long, shorter than half the samples' spacing of {} mm (speed_m_s times sample_period_s): lower either, or lengthen the pattern",
                 length * 1e3,
                 shown(spacing * 1e3)
             ),
@@ -477,6 +484,10 @@ mod tests {
         assert_eq!(out[0].point, pts[0].point);
         assert_eq!(out[out.len() - 1].point, pts[pts.len() - 1].point);
         assert!(resample(&pts[..1], 0.001).is_err());
+        // A spacing twice the path's length is the timing's bad input, named.
+        let e = resample(&pts, 0.81).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        assert!(e.to_string().contains("timing.speed_m_s"), "{e}");
     }
 
     #[test]
