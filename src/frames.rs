@@ -48,9 +48,14 @@ pub fn pose_from_rows(rows: &[[f64; 4]; 4], what: &str) -> Result<Pose> {
         return Err(Error::input(
             what,
             format!(
-                "pose matrix's rotation block is not a rotation to 1e-6: RᵀR is off the identity by up to {} and det R is {} (entries rounded to fewer than 7 decimals?)",
+                "pose matrix's rotation block is not a rotation to 1e-6: RᵀR is off the identity by up to {} and det R is {}{}",
                 crate::config::shown_significant(skew, 2),
-                crate::config::shown_significant(det, 7)
+                crate::config::shown_significant(det, 7),
+                if skew < 1e-3 && (det - 1.0).abs() < 1e-3 {
+                    " (entries rounded to fewer than 7 decimals?)"
+                } else {
+                    ""
+                }
             ),
         ));
     }

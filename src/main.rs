@@ -66,7 +66,8 @@ fn stop_cleanly_on_signals() {
     let mut signals = match signal_hook::iterator::Signals::new(&wanted) {
         Ok(s) => s,
         Err(e) => {
-            eprintln!(
+            let _ = writeln!(
+                std::io::stderr(),
                 "warning: cannot handle signals ({e}): an interrupted run may leave a .NAME.PID.tmp in --out"
             );
             return;

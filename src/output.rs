@@ -41,9 +41,16 @@ fn created() -> MutexGuard<'static, Vec<PathBuf>> {
 struct Unfinished(PathBuf);
 
 impl Unfinished {
-    /// Creates `path` new and lists it, under the lock.
+    /// Creates `path` new, and its folder if it is gone, and lists it, under the lock (a run
+    /// stopped by a signal has removed the folders it made and holds the lock to its end: none
+    /// is made again).
     fn create(path: PathBuf) -> std::io::Result<(Self, fs::File)> {
         let mut list = unfinished();
+        // Another run into the same new folder that stopped before writing anything removes
+        // it as it ends: made again.
+        if let Some(dir) = path.parent() {
+            fs::create_dir_all(dir)?;
+        }
         let file = fs::File::create_new(&path)?;
         list.push(path.clone());
         Ok((Unfinished(path), file))
@@ -70,20 +77,30 @@ impl Drop for Unfinished {
     }
 }
 
+/// The locks a run stopped by a signal holds until the process exits.
+pub struct Stopped {
+    _files: MutexGuard<'static, Vec<PathBuf>>,
+    _folders: MutexGuard<'static, Vec<PathBuf>>,
+}
+
 /// Removes the temporary files this process is writing, for a run interrupted by a signal,
-/// and the folders it made for its output that are left empty, and returns the lock on the
-/// files' list: held until the process exits, no file is created or renamed into place after
-/// it. A product already renamed is complete and stays.
-pub fn remove_unfinished() -> MutexGuard<'static, Vec<PathBuf>> {
-    let mut list = unfinished();
-    for tmp in list.drain(..) {
+/// and the folders it made for its output that are left empty, and returns the locks on both
+/// lists: held until the process exits, no file or folder is created or renamed into place
+/// after it. A product already renamed is complete and stays.
+pub fn remove_unfinished() -> Stopped {
+    let mut files = unfinished();
+    for tmp in files.drain(..) {
         let _ = fs::remove_file(tmp);
     }
     // Innermost first: a folder that holds anything stays, and so do those around it.
-    for dir in created().iter() {
+    let folders = created();
+    for dir in folders.iter() {
         let _ = fs::remove_dir(dir);
     }
-    list
+    Stopped {
+        _files: files,
+        _folders: folders,
+    }
 }
 
 /// Whether this process was started with `signal` ignored (Linux's `/proc/self/status`,
@@ -206,13 +223,18 @@ impl OutDir {
         // Level by level, each folder listed only if this run made it (not one another run
         // made meanwhile, nor `new/..`, which is there once `new` is).
         for d in missing.into_iter().rev() {
+            // Made and listed under the lock: a signal meanwhile finds it listed, or stops it
+            // being made.
+            let mut listed = created();
             match fs::create_dir(d) {
                 Ok(()) => {
                     out.created.insert(0, d.to_path_buf());
-                    created().insert(0, d.to_path_buf());
+                    listed.insert(0, d.to_path_buf());
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
                 Err(e) => {
+                    // (The lock first: `out`'s drop takes it to remove what it made.)
+                    drop(listed);
                     return Err(Error::input(
                         dir.display(),
                         format!("cannot create the output folder: {e}"),
@@ -254,9 +276,6 @@ impl OutDir {
             ));
         };
         let stage = format!("write {}", target.display());
-        // Another run into the same new folder that stopped before writing anything removes
-        // it as it ends: made again.
-        fs::create_dir_all(&self.dir).map_err(|e| Error::failed(&stage, e))?;
         // Never truncate an existing file, should one have the temporary name.
         let (tmp, file) =
             Unfinished::create(self.dir.join(temporary(name))).map_err(|e| Error::failed(&stage, e))?;

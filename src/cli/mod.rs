@@ -201,13 +201,14 @@ pub fn execute(cli: Cli) -> Result<()> {
     if let Some(out) = &report.out {
         out.write_json("summary.json", &report.summary)?;
     }
-    if !ctx.quiet && !report.text.is_empty() {
-        emit(&mut std::io::stderr(), &report.text, "stderr")?;
-    }
-    if ctx.json {
-        emit(&mut std::io::stdout(), &format!("{}\n", report.summary), "stdout")?;
-    }
-    report.failure.map_or(Ok(()), Err)
+    let text =
+        (!ctx.quiet && !report.text.is_empty()).then(|| emit(&mut std::io::stderr(), &report.text, "stderr"));
+    let json = ctx
+        .json
+        .then(|| emit(&mut std::io::stdout(), &format!("{}\n", report.summary), "stdout"));
+    // The run's own failure before a failure to tell of it.
+    report.failure.map_or(Ok(()), Err)?;
+    text.into_iter().chain(json).collect()
 }
 
 /// Writes `text` to `stream`: a reader that has gone (a pipe into `head`) is no error, the

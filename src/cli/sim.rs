@@ -82,7 +82,7 @@ pub fn sim_text(s: &SimSummary) -> String {
     // Under a tenth of a radian the vehicle's drift or a model's error can take a joint to its
     // limit (README, "Model errors"): where to get more room is said.
     let room = if s.joint_limit_margin_rad < LITTLE_ROOM_RAD {
-        " (little room: [sim.hover] min_limit_margin_rad chooses a station with more)"
+        " (little room: [sim.hover] min_limit_margin_rad chooses a station with more, at a price: README, \"Model errors\")"
     } else {
         ""
     };

@@ -320,7 +320,18 @@ pub fn plan(input: &PlanInput, config: &PlanConfig) -> Result<Plan> {
         PatternKind::Line => patterns::line(&ctx, &config.line)?,
         PatternKind::Polyline => patterns::polyline(&ctx, &config.polyline)?,
     };
-    let (samples, spacing) = timing::resample(&path.points, config.timing.spacing())?;
+    // A pattern clipped to the scanned surface is as short as the scan made it: a scan too
+    // small for the pattern, not a bad timing.
+    let (samples, spacing) =
+        timing::resample(&path.points, config.timing.spacing()).map_err(|e| match e {
+            Error::Input { reason, .. } if path.clipped => Error::failed(
+                "plan",
+                format!(
+                    "{reason} (the pattern was clipped to the scanned surface, which is too small for it)"
+                ),
+            ),
+            other => other,
+        })?;
     let points: Vec<Point3<f64>> = samples.iter().map(|p| p.point).collect();
     let window = (radius / spacing).round().max(1.0) as usize;
     let normals = tool_frame::smooth_along(&samples.iter().map(|p| p.normal).collect::<Vec<_>>(), window);

@@ -631,9 +631,10 @@ pub fn simulate(
         }
         alloc
     };
-    // At rest the accelerometers read the specific force `−g` (`C` axes), as the controllers
-    // expect it.
-    let f_rest = h.rotation.inverse() * Vector3::new(0.0, 0.0, -g);
+    // At rest the accelerometers read the specific force `−g` (`C` axes): as the controllers
+    // expect it, and as the plant's gravity gives it.
+    let rest_force = |g: f64| h.rotation.inverse() * Vector3::new(0.0, 0.0, -g);
+    let f_rest = rest_force(g);
     let zero = JointVector::zeros();
     let mut trim = Vector6::zeros();
     let mut current = Vector3::zeros();
@@ -720,7 +721,7 @@ pub fn simulate(
     let mut truth_prev = truth_of(&plant.state, &first_eval, g_plant, &plant.system.current);
     // NS levelled the accelerometers while the station was held.
     let at_rest = Truth {
-        specific_force: h.rotation.inverse() * Vector3::new(0.0, 0.0, -g_plant),
+        specific_force: rest_force(g_plant),
         ..truth_prev
     };
     let levelling = (cfg.navigation.levelling_s * cfg.control_rate_hz).round() as usize;
