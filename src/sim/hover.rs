@@ -214,6 +214,9 @@ struct Reach {
     /// The largest static drive utilisation over the reached samples, the joint (0-based) and
     /// its torque there, N·m.
     drive: (f64, usize, f64),
+    /// Why it stopped short of the next checked sample (`None`: it did not, or it was given up
+    /// as unable to beat the best).
+    stop: Option<Stop>,
 }
 
 /// Manipulabilities within this fraction of each other are equal: the arm's first joint takes
@@ -318,6 +321,7 @@ fn limits_clear(arm: &Arm, q: &JointVector, cfg: &HoverConfig) -> bool {
 }
 
 /// Why a branch cannot go on to the next sample.
+#[derive(Debug, Clone, Copy)]
 enum Stop {
     /// No IK solution within the joint limits.
     OutOfReach,
@@ -329,6 +333,30 @@ enum Stop {
     Near(f64),
     /// A joint (0-based) would come this near its limit, rad.
     NearLimit(f64, usize),
+}
+
+/// What stopped a branch at a sample, for a message: "the point … {text}".
+fn stop_text(stop: Stop, cfg: &HoverConfig) -> String {
+    match stop {
+        Stop::OutOfReach => "is out of the arm's reach".to_string(),
+        Stop::Jump(jump) => format!(
+            "needs a joint to turn by {} rad from the sample before (sim.hover.max_joint_step_rad {})",
+            shown_to(jump, 2),
+            shown(cfg.max_joint_step_rad)
+        ),
+        Stop::Through => "takes the wrist through its singularity".to_string(),
+        Stop::Near(q5) => format!(
+            "brings the wrist within {} rad of its singularity (sim.hover.min_wrist_angle_rad {})",
+            shown_to(q5, 3),
+            shown(cfg.min_wrist_angle_rad)
+        ),
+        Stop::NearLimit(margin, joint) => format!(
+            "brings joint {} within {} rad of its limit (sim.hover.min_limit_margin_rad {})",
+            joint + 1,
+            shown_to(margin, 3),
+            shown(cfg.min_limit_margin_rad)
+        ),
+    }
 }
 
 /// The branch at `q`, its wrist on `side`, moved on to `target` (base frame): the IK solution
@@ -381,24 +409,7 @@ fn follow_every_sample(
                 q = next;
                 continue;
             }
-            Err(Stop::OutOfReach) => "is out of the arm's reach".to_string(),
-            Err(Stop::Jump(jump)) => format!(
-                "needs a joint to turn by {} rad from the sample before (sim.hover.max_joint_step_rad {})",
-                shown_to(jump, 2),
-                shown(cfg.max_joint_step_rad)
-            ),
-            Err(Stop::Through) => "takes the wrist through its singularity".to_string(),
-            Err(Stop::Near(q5)) => format!(
-                "brings the wrist within {} rad of its singularity (sim.hover.min_wrist_angle_rad {})",
-                shown_to(q5, 3),
-                shown(cfg.min_wrist_angle_rad)
-            ),
-            Err(Stop::NearLimit(margin, joint)) => format!(
-                "brings joint {} within {} rad of its limit (sim.hover.min_limit_margin_rad {})",
-                joint + 1,
-                shown_to(margin, 3),
-                shown(cfg.min_limit_margin_rad)
-            ),
+            Err(stop) => stop_text(stop, cfg),
         };
         return Err(Error::failed(
             "hover",
@@ -474,21 +485,33 @@ fn follow(
     for q0 in starts.as_slice() {
         let mut q = *q0;
         let side = q0[4].signum();
+        let stop = if !wrist_clear(q0, side, cfg) {
+            Some(Stop::Near(q0[4].abs()))
+        } else if !limits_clear(arm, q0, cfg) {
+            let (margin, joint) = arm.limit_margin(q0);
+            Some(Stop::NearLimit(margin, joint))
+        } else {
+            None
+        };
         let mut r = Reach {
             q_start: *q0,
-            reached: usize::from(wrist_clear(q0, side, cfg) && limits_clear(arm, q0, cfg)),
+            reached: usize::from(stop.is_none()),
             manipulability: arm.manipulability_at(&in_base[0], &q)?,
             thrust: loads[0],
             drive: drive_at(0, &q),
+            stop,
         };
         for i in 1..n {
             if r.reached < i || !r.can_beat(bar, n, cfg) {
                 break;
             }
-            let Ok(next) = step(arm, &in_base[i], &q, side, cfg)? else {
-                break;
+            q = match step(arm, &in_base[i], &q, side, cfg)? {
+                Ok(next) => next,
+                Err(stop) => {
+                    r.stop = Some(stop);
+                    break;
+                }
             };
-            q = next;
             r.manipulability = r.manipulability.min(arm.manipulability_at(&in_base[i], &q)?);
             r.thrust = r.thrust.max(loads[i]);
             r.drive = more_loaded(r.drive, drive_at(i, &q));
@@ -651,12 +674,14 @@ pub fn choose(
             })
         }
         best => {
-            let reached = best.map_or(0, |(_, r)| r.reached);
+            let (reached, stop) = best.map_or((0, None), |(_, r)| (r.reached, r.stop));
             let fail = &trajectory.samples[idx[reached.min(idx.len() - 1)]];
+            // A branch given up against a better one has no reason of its own.
+            let why = stop_text(stop.unwrap_or(Stop::OutOfReach), cfg);
             Err(Error::failed(
                 "hover",
                 format!(
-                    "no hover point reaches the whole trajectory within the joint limits{} and with the wrist at least {} rad from its singularity (sim.hover.min_wrist_angle_rad): the best of {evaluated} candidates follows it to t = {:.2} s and the point at t = {:.2} s ({} phase, at {} m) is out of reach",
+                    "no hover point reaches the whole trajectory within the joint limits{} and with the wrist at least {} rad from its singularity (sim.hover.min_wrist_angle_rad): the best of {evaluated} candidates {} and the point at t = {:.2} s ({} phase, at {} m) {}",
                     if cfg.min_limit_margin_rad > 0.0 {
                         format!(
                             " (every joint at least {} rad inside them, sim.hover.min_limit_margin_rad)",
@@ -666,10 +691,17 @@ pub fn choose(
                         String::new()
                     },
                     shown(cfg.min_wrist_angle_rad),
-                    trajectory.samples[idx[reached.saturating_sub(1)]].t,
+                    match reached {
+                        0 => "reaches none of it".to_string(),
+                        _ => format!(
+                            "follows it to t = {:.2} s",
+                            trajectory.samples[idx[reached - 1]].t
+                        ),
+                    },
                     fail.t,
                     fail.phase.as_str(),
-                    shown_xyz(&fail.position.coords.into(), 3)
+                    shown_xyz(&fail.position.coords.into(), 3),
+                    why
                 ),
             ))
         }
@@ -937,8 +969,14 @@ mod tests {
             min_limit_margin_rad: 2.0,
             ..cfg
         };
-        let e = choose(&mb, &thrusters(), &traj, &wide).unwrap_err();
-        assert!(e.to_string().contains("sim.hover.min_limit_margin_rad"), "{e}");
+        let e = choose(&mb, &thrusters(), &traj, &wide).unwrap_err().to_string();
+        // It says what stopped the best candidate: the margin, not the reach.
+        assert!(
+            e.contains("within the joint limits (every joint at least 2 rad inside them")
+                && e.contains("of its limit (sim.hover.min_limit_margin_rad 2)")
+                && !e.contains("out of the arm's reach"),
+            "{e}"
+        );
         let bad = HoverConfig {
             min_limit_margin_rad: -0.1,
             ..cfg
@@ -1002,7 +1040,8 @@ mod tests {
         let e = choose(&mb, &thrusters(), &traj, &cfg).unwrap_err();
         assert_eq!(e.exit_code(), 1);
         assert!(
-            e.to_string().contains("out of reach") && e.to_string().contains("wrist at least 0.1 rad"),
+            e.to_string().contains("out of the arm's reach")
+                && e.to_string().contains("wrist at least 0.1 rad"),
             "{e}"
         );
     }
