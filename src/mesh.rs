@@ -67,15 +67,21 @@ impl TriangleMesh {
         (b - a).cross(&(c - a)).try_normalize(1e-300)
     }
 
+    /// The triangles with an area (those with a normal, [`Self::triangle_normal`]), in their
+    /// order. Triangle indices must be in range.
+    pub fn triangles_with_area(&self) -> impl Iterator<Item = &[u32; 3]> {
+        (0..self.triangles.len())
+            .filter(|&t| self.triangle_normal(t).is_some())
+            .map(|t| &self.triangles[t])
+    }
+
     /// How many triangles with an area repeat an earlier one: the same three corners (by
     /// position, in any order or winding), as a two-sided surface or a face written twice has
     /// them (triangles without area, a strip's joints, are left out). Triangle indices must be
     /// in range.
     pub fn repeated_triangles(&self) -> usize {
         let mut seen = std::collections::HashSet::with_capacity(self.triangles.len());
-        (0..self.triangles.len())
-            .filter(|&t| self.triangle_normal(t).is_some())
-            .map(|t| &self.triangles[t])
+        self.triangles_with_area()
             .filter(|t| {
                 let mut corners = t.map(|i| self.vertices[i as usize].coords.map(|c| (c + 0.0).to_bits()));
                 corners.sort_unstable_by_key(|c| (c.x, c.y, c.z));

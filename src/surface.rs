@@ -123,10 +123,7 @@ impl Surface {
         }
         // A triangle without area has no side to push from, and its edges would hide an open
         // mesh's rim.
-        let triangles: Vec<[u32; 3]> = (0..mesh.triangles.len())
-            .filter(|&t| mesh.triangle_normal(t).is_some())
-            .map(|t| mesh.triangles[t])
-            .collect();
+        let triangles: Vec<[u32; 3]> = mesh.triangles_with_area().copied().collect();
         if triangles.is_empty() {
             return Err(Error::input("surface", "mesh has no triangles with an area"));
         }

@@ -443,7 +443,7 @@ impl Contact {
 
     /// How deep a tip at `tip` is in the material (negative outside: minus its distance from
     /// the surface), and the normal the contact force is along.
-    pub fn depth_and_normal(&mut self, tip: &Point3<f64>) -> (f64, Vector3<f64>) {
+    pub(crate) fn depth_and_normal(&mut self, tip: &Point3<f64>) -> (f64, Vector3<f64>) {
         let proj = self.surface.project_tracked(tip, &mut self.near);
         // The footprint's surface ends at the mesh's rim too; where no sample lies within its
         // radius (a tip deeper than that), the mesh's own surface answers.

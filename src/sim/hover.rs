@@ -308,16 +308,24 @@ fn more_loaded(a: (f64, usize, f64), b: (f64, usize, f64)) -> (f64, usize, f64) 
     if b.0 > a.0 || b.0.is_nan() { b } else { a }
 }
 
-/// Whether the wrist at `q` keeps `min_wrist_angle_rad` from its singularity on the side
-/// `side` (the sign of `q₅` it started with).
-fn wrist_clear(q: &JointVector, side: f64, cfg: &HoverConfig) -> bool {
-    q[4].abs() >= cfg.min_wrist_angle_rad && q[4] * side > 0.0
-}
-
-/// Whether `q` keeps `min_limit_margin_rad` from every joint limit (at 0, the IK's solutions
-/// are within the limits up to its round-off).
-fn limits_clear(arm: &Arm, q: &JointVector, cfg: &HoverConfig) -> bool {
-    cfg.min_limit_margin_rad == 0.0 || arm.limit_margin(q).0 >= cfg.min_limit_margin_rad
+/// What keeps a branch from `q`, if anything: its wrist past its singularity from the side
+/// `side` (the sign of `q₅` it started with) or within `min_wrist_angle_rad` of it, or a joint
+/// within `min_limit_margin_rad` of its limits (at 0, the IK's solutions are within the limits
+/// up to its round-off).
+fn blocked(arm: &Arm, q: &JointVector, side: f64, cfg: &HoverConfig) -> Option<Stop> {
+    if q[4] * side <= 0.0 {
+        return Some(Stop::Through);
+    }
+    if q[4].abs() < cfg.min_wrist_angle_rad {
+        return Some(Stop::Near(q[4].abs()));
+    }
+    if cfg.min_limit_margin_rad > 0.0 {
+        let (margin, joint) = arm.limit_margin(q);
+        if margin < cfg.min_limit_margin_rad {
+            return Some(Stop::NearLimit(margin, joint));
+        }
+    }
+    None
 }
 
 /// Why a branch cannot go on to the next sample.
@@ -374,18 +382,10 @@ fn step(
         return Ok(Err(Stop::OutOfReach));
     };
     let jump = (next - q).amax();
-    Ok(if jump > cfg.max_joint_step_rad {
-        Err(Stop::Jump(jump))
-    } else if next[4] * side <= 0.0 {
-        Err(Stop::Through)
-    } else if !wrist_clear(&next, side, cfg) {
-        Err(Stop::Near(next[4].abs()))
-    } else if !limits_clear(arm, &next, cfg) {
-        let (margin, joint) = arm.limit_margin(&next);
-        Err(Stop::NearLimit(margin, joint))
-    } else {
-        Ok(next)
-    })
+    if jump > cfg.max_joint_step_rad {
+        return Ok(Err(Stop::Jump(jump)));
+    }
+    Ok(blocked(arm, &next, side, cfg).map_or(Ok(next), Err))
 }
 
 /// Follows the chosen station's branch from `q_start` through every sample of `trajectory`
@@ -485,14 +485,7 @@ fn follow(
     for q0 in starts.as_slice() {
         let mut q = *q0;
         let side = q0[4].signum();
-        let stop = if !wrist_clear(q0, side, cfg) {
-            Some(Stop::Near(q0[4].abs()))
-        } else if !limits_clear(arm, q0, cfg) {
-            let (margin, joint) = arm.limit_margin(q0);
-            Some(Stop::NearLimit(margin, joint))
-        } else {
-            None
-        };
+        let stop = blocked(arm, q0, side, cfg);
         let mut r = Reach {
             q_start: *q0,
             reached: usize::from(stop.is_none()),
@@ -945,14 +938,10 @@ mod tests {
     fn the_joints_keep_their_margin_from_the_limits() {
         let (mb, traj, cfg) = coarse_stroke();
         let closest = |h: &Hover| {
-            let mut least = f64::INFINITY;
-            for q in followed(&mb, &traj, h) {
-                for (j, link) in mb.arm.links.iter().enumerate() {
-                    let [lo, hi] = link.limits;
-                    least = least.min(q[j] - lo).min(hi - q[j]);
-                }
-            }
-            least
+            followed(&mb, &traj, h)
+                .iter()
+                .map(|q| mb.arm.limit_margin(q).0)
+                .fold(f64::INFINITY, f64::min)
         };
         let free = closest(&choose(&mb, &thrusters(), &traj, &cfg).unwrap());
         let margin = free + 0.1;
