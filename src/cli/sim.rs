@@ -17,7 +17,7 @@ use crate::mesh::TriangleMesh;
 use crate::model::UvmsModel;
 use crate::output::OutDir;
 use crate::plot::{to_png, to_svg};
-use crate::sim::record::{figures, write_csv};
+use crate::sim::record::{Figures, figures, write_csv};
 use crate::sim::{SimConfig, SimSummary, SurfaceFrame, SurfaceSource, check_plant_model, simulate};
 use crate::trajectory::{Phase, Trajectory};
 use serde::{Deserialize, Serialize};
@@ -96,9 +96,17 @@ pub fn sim_text(s: &SimSummary) -> String {
     // without a force setpoint (soil: the tool pushed by position alone) has no error to it.
     let force = match (fig.force_settled_mean_n.is_finite(), fig.force_setpoint_n > 0.0) {
         (false, _) => "no settled force".to_string(),
-        (true, true) => format!(
+        (true, true) if fig.force_setpoint_min_n == fig.force_setpoint_n => format!(
             "settled mean {:.2} N (min {:.2}, RMS error {:.2}), overshoot {:.2} N",
             fig.force_settled_mean_n, fig.force_settled_min_n, fig.force_rms_error_n, fig.force_overshoot_n
+        ),
+        (true, true) => format!(
+            "settled mean error {:+.2} N (RMS {:.2}; mean {:.2} N, min {:.2}), largest {:.2} N in the transients",
+            fig.force_settled_error_mean_n,
+            fig.force_rms_error_n,
+            fig.force_settled_mean_n,
+            fig.force_settled_min_n,
+            fig.force_overshoot_n
         ),
         (true, false) => format!(
             "settled mean {:.2} N (min {:.2})",
@@ -106,7 +114,7 @@ pub fn sim_text(s: &SimSummary) -> String {
         ),
     };
     let setpoint = if fig.force_setpoint_n > 0.0 {
-        format!("setpoint {:.1} N", fig.force_setpoint_n)
+        format!("setpoint {} N", setpoint_text(fig))
     } else {
         "no setpoint (the path followed by position)".to_string()
     };
@@ -366,6 +374,15 @@ pub fn sim_stage(
 /// loop): the operation was not carried out along the whole path. A phase that asks for no
 /// force along or above the surface (or so little inside it that the surface's spring there
 /// pushes less than `sim.dwell.tolerance_n`) may skim it untouched, and leave it.
+/// The force asked for in contact: `60.0`, or `40.0–65.0` where it varies along the path.
+fn setpoint_text(fig: &Figures) -> String {
+    if fig.force_setpoint_min_n == fig.force_setpoint_n {
+        format!("{:.1}", fig.force_setpoint_n)
+    } else {
+        format!("{:.1}–{:.1}", fig.force_setpoint_min_n, fig.force_setpoint_n)
+    }
+}
+
 fn operation_failure(
     trajectory: &Trajectory,
     depth_m: Option<f64>,
@@ -418,10 +435,10 @@ fn operation_failure(
             ),
         ));
     }
-    // A constant force asked for and not held: the contact operation did not apply it.
-    let constant = trajectory.phase(Phase::Contact).all(|s| s.force == force);
-    let off = figures.force_settled_mean_n - force;
-    if force <= 0.0 || !constant || off.abs() <= cfg.dwell.tolerance_n {
+    // A force asked for and not held: the contact operation did not apply it. The error is
+    // each period's against its own set-point, which may vary along the path.
+    let off = figures.force_settled_error_mean_n;
+    if force <= 0.0 || off.abs() <= cfg.dwell.tolerance_n {
         return None;
     }
     if off.is_nan() {
@@ -454,8 +471,9 @@ fn operation_failure(
     Some(Error::failed(
         "sim",
         format!(
-            "the force along k settled at {:.2} N on average against the {asked} N asked for, {:.2} N off, beyond sim.dwell.tolerance_n = {} N (the products are written; {})",
+            "the force along k settled at {:.2} N on average against the {} N asked for, {:.2} N off, beyond sim.dwell.tolerance_n = {} N (the products are written; {})",
             figures.force_settled_mean_n,
+            setpoint_text(figures),
             off.abs(),
             cfg.dwell.tolerance_n,
             why.join("; ")

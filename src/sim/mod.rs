@@ -727,7 +727,14 @@ pub fn simulate(
     let levelling = (cfg.navigation.levelling_s * cfg.control_rate_hz).round() as usize;
     nav.level(&sensors.accelerometers_mean(&at_rest, levelling), &h.rotation);
 
-    let force_setpoint = trajectory.samples.iter().map(|s| s.force).fold(0.0, f64::max);
+    let force_setpoint = (
+        trajectory
+            .phase(Phase::Contact)
+            .map(|s| s.force)
+            .reduce(f64::min)
+            .unwrap_or(0.0),
+        trajectory.samples.iter().map(|s| s.force).fold(0.0, f64::max),
+    );
     let log_every = ((cfg.control_rate_hz / cfg.log_rate_hz).round() as usize).max(1);
     let mut rec = Recorder::new(force_setpoint, cfg.settle_time_s);
     let mut clock = t0;
@@ -748,7 +755,7 @@ pub fn simulate(
     let ramp_to = trajectory
         .phase(Phase::Contact)
         .next()
-        .map_or(force_setpoint, |s| s.force);
+        .map_or(force_setpoint.1, |s| s.force);
     // The guarded start's speed: the approach's, into its last point.
     let guard_speed = trajectory
         .samples
@@ -931,6 +938,7 @@ pub fn simulate(
             phase: s.phase,
             t,
             f_k_true: -s.k.dot(&cs.wrench.lin),
+            f_set: s.force,
             f_norm: cs.wrench.lin.norm(),
             f_k_id_error: s.k.dot(&(f_imp_est + f_env_true_prev)),
             in_contact: cs.in_contact(),

@@ -161,6 +161,8 @@ pub struct Observation {
     pub t: f64,
     /// True force along `k`, N.
     pub f_k_true: f64,
+    /// The force along `k` the trajectory asks for this period, N.
+    pub f_set: f64,
     /// The identified force along `k` minus the true one at the instant the identification
     /// refers to (the previous control period, whose sensor readings it is made of), N.
     pub f_k_id_error: f64,
@@ -190,6 +192,9 @@ pub struct Observation {
 pub struct Figures {
     /// The desired force in contact, N (the largest along the trajectory).
     pub force_setpoint_n: f64,
+    /// The smallest desired force in the contact phase, N (`force_setpoint_n` for a constant
+    /// force).
+    pub force_setpoint_min_n: f64,
     /// Mean true force along `k` in the contact phase once settled, N.
     pub force_settled_mean_n: f64,
     /// Largest true force along `k`, N.
@@ -202,8 +207,12 @@ pub struct Figures {
     pub force_overshoot_n: f64,
     /// Largest magnitude of the true contact force (normal and tangential), N.
     pub contact_force_max_n: f64,
-    /// RMS of the true force's error along `k` in the contact phase once settled, N.
+    /// RMS of the true force's error along `k` (against each period's set-point) in the
+    /// contact phase once settled, N.
     pub force_rms_error_n: f64,
+    /// Mean of the true force's error along `k` (against each period's set-point) in the
+    /// contact phase once settled, N.
+    pub force_settled_error_mean_n: f64,
     /// Smallest true force along `k` in the contact phase once settled, N.
     pub force_settled_min_n: f64,
     /// Largest distance of the tool tip from where the control system wants it (`P* + ΔP*`), m.
@@ -245,7 +254,7 @@ pub struct Figures {
 #[derive(Debug, Clone)]
 pub struct Recorder {
     rows: Vec<Row>,
-    setpoint: f64,
+    setpoint: (f64, f64),
     settle_time: f64,
     first_contact: Option<f64>,
     /// When the path (the contact phase) started after the first contact, s.
@@ -253,7 +262,9 @@ pub struct Recorder {
     force_max: f64,
     overshoot: f64,
     contact_force_max: f64,
-    settled: (f64, f64, usize, f64),
+    /// Once settled: the sums of the force and of its error and squared error, their count,
+    /// the smallest force.
+    settled: (f64, f64, f64, usize, f64),
     force_id_error: f64,
     lost: f64,
     last_t: Option<f64>,
@@ -268,9 +279,9 @@ pub struct Recorder {
 }
 
 impl Recorder {
-    /// A recorder for a run with the desired force `setpoint`, settled `settle_time` after the
-    /// first contact.
-    pub fn new(setpoint: f64, settle_time: f64) -> Self {
+    /// A recorder for a run whose desired force in contact runs from `setpoint.0` to
+    /// `setpoint.1`, settled `settle_time` after the first contact.
+    pub fn new(setpoint: (f64, f64), settle_time: f64) -> Self {
         Recorder {
             rows: Vec::new(),
             setpoint,
@@ -280,7 +291,7 @@ impl Recorder {
             force_max: 0.0,
             overshoot: 0.0,
             contact_force_max: 0.0,
-            settled: (0.0, 0.0, 0, f64::INFINITY),
+            settled: (0.0, 0.0, 0.0, 0, f64::INFINITY),
             force_id_error: 0.0,
             lost: 0.0,
             last_t: None,
@@ -319,11 +330,12 @@ impl Recorder {
                 self.overshoot = self.overshoot.max(o.f_k_true);
             }
             if o.phase == Phase::Contact && o.t >= t1 + self.settle_time {
-                let e = o.f_k_true - self.setpoint;
+                let e = o.f_k_true - o.f_set;
                 self.settled.0 += o.f_k_true;
-                self.settled.1 += e * e;
-                self.settled.2 += 1;
-                self.settled.3 = self.settled.3.min(o.f_k_true);
+                self.settled.1 += e;
+                self.settled.2 += e * e;
+                self.settled.3 += 1;
+                self.settled.4 = self.settled.4.min(o.f_k_true);
                 self.force_id_error = self.force_id_error.max(o.f_k_id_error.abs());
             }
         }
@@ -343,18 +355,21 @@ impl Recorder {
 
     /// The figures so far.
     pub fn figures(&self) -> Figures {
-        let (sum, sum2, n, min) = self.settled;
+        let (sum, sum_e, sum_e2, n, min) = self.settled;
         let nf = n.max(1) as f64;
+        let settled = |x: f64| if n > 0 { x } else { f64::NAN };
         let mut errors = self.m_ez_errors_contact.clone();
         let mut thrust = self.thrust_contact.clone();
         Figures {
-            force_setpoint_n: self.setpoint,
-            force_settled_mean_n: if n > 0 { sum / nf } else { f64::NAN },
+            force_setpoint_n: self.setpoint.1,
+            force_setpoint_min_n: self.setpoint.0,
+            force_settled_mean_n: settled(sum / nf),
             force_max_n: self.force_max,
             force_overshoot_n: self.overshoot,
             contact_force_max_n: self.contact_force_max,
-            force_rms_error_n: if n > 0 { (sum2 / nf).sqrt() } else { f64::NAN },
-            force_settled_min_n: if n > 0 { min } else { f64::NAN },
+            force_rms_error_n: settled((sum_e2 / nf).sqrt()),
+            force_settled_error_mean_n: settled(sum_e / nf),
+            force_settled_min_n: settled(min),
             tool_deviation_max_m: self.deviation,
             tool_path_error_max_m: self.path_error,
             auv_deviation_max_m: self.r,
@@ -662,6 +677,7 @@ mod tests {
             },
             t,
             f_k_true: 0.0,
+            f_set: 60.0,
             f_k_id_error: 0.0,
             f_norm: 0.0,
             in_contact,
@@ -680,7 +696,7 @@ mod tests {
     /// later peaks only in the largest force.
     #[test]
     fn overshoot_spans_the_dwell_and_the_slide_s_start() {
-        let mut rec = Recorder::new(60.0, 1.0);
+        let mut rec = Recorder::new((60.0, 60.0), 1.0);
         let at = |t: f64, phase: Phase, f: f64| Observation {
             phase,
             f_k_true: f,
@@ -703,7 +719,7 @@ mod tests {
     /// the first contact; the identification's quantiles take the periods in contact alone.
     #[test]
     fn settled_force_lost_contact_and_quantiles_from_hand_made_periods() {
-        let mut rec = Recorder::new(60.0, 1.0);
+        let mut rec = Recorder::new((60.0, 60.0), 1.0);
         let at = |t: f64, phase: Phase, in_contact: bool, f: f64| Observation {
             phase,
             f_k_true: f,
@@ -728,16 +744,39 @@ mod tests {
         assert_eq!(f.contact_lost_s, 0.125);
         assert!((f.force_settled_mean_n - 119.0 / 3.0).abs() < 1e-12);
         assert!((f.force_rms_error_n - (3613.0f64 / 3.0).sqrt()).abs() < 1e-12);
+        assert!((f.force_settled_error_mean_n + 61.0 / 3.0).abs() < 1e-12);
         assert_eq!(f.force_settled_min_n, 0.0);
         assert_eq!(f.moment_id_error_contact_max_nm, Some(1.0));
         assert_eq!(f.moment_id_error_max_nm, 9.0);
+    }
+
+    /// A set-point that varies along the path: each period's force is scored against that
+    /// period's set-point, not the largest one.
+    #[test]
+    fn a_varying_set_point_scores_each_period_against_its_own() {
+        let mut rec = Recorder::new((40.0, 65.0), 0.5);
+        // The force follows a set-point rising from 40 to 65 N, 1 N above it.
+        for k in 0..=25 {
+            let f_set = 40.0 + k as f64;
+            rec.observe(&Observation {
+                f_set,
+                f_k_true: f_set + 1.0,
+                ..observation(0.1 * k as f64, true, 0.0)
+            });
+        }
+        let f = rec.figures();
+        assert_eq!((f.force_setpoint_min_n, f.force_setpoint_n), (40.0, 65.0));
+        assert!((f.force_rms_error_n - 1.0).abs() < 1e-12);
+        assert!((f.force_settled_error_mean_n - 1.0).abs() < 1e-12);
+        // From 0.5 s on: set-points 45 … 65 N, forces 46 … 66 N.
+        assert!((f.force_settled_mean_n - 56.0).abs() < 1e-12);
     }
 
     /// The identification error's and the thrust's quantiles are taken over the periods in
     /// contact only; the run's largest error over every period.
     #[test]
     fn quantiles_in_contact() {
-        let mut rec = Recorder::new(60.0, 1.0);
+        let mut rec = Recorder::new((60.0, 60.0), 1.0);
         rec.observe(&Observation {
             thrust_utilisation: 3.0,
             ..observation(0.0, false, 50.0)
