@@ -426,14 +426,14 @@ fn follow_every_sample(
 }
 
 /// Follows each IK branch of the first target along `targets` (world tool poses, with the
-/// environment's expected force on the tool) for the vehicle of `system` at `t_world_body`;
+/// environment's expected force on the tool where it is pressed: none where it is free) for the vehicle of `system` at `t_world_body`;
 /// the best branch. A branch is given up as soon as it cannot beat `bar` (the best candidate
 /// so far).
 fn follow(
     system: &Multibody,
     thrusters: &Thrusters,
     t_world_body: &Isometry3<f64>,
-    targets: &[(Isometry3<f64>, Vector3<f64>)],
+    targets: &[(Isometry3<f64>, Option<Vector3<f64>>)],
     cfg: &HoverConfig,
     bar: Option<&Reach>,
 ) -> Result<Option<Reach>> {
@@ -461,10 +461,13 @@ fn follow(
         .drag_on_body(&Motion::new(against, Vector3::zeros()));
     let loads: Vec<f64> = targets
         .iter()
-        .map(|(t, f)| utilisation(thrusters, t_world_body, &t.translation.vector, f, &drag))
+        .map(|(t, f)| {
+            let f = f.unwrap_or_else(Vector3::zeros);
+            utilisation(thrusters, t_world_body, &t.translation.vector, &f, &drag)
+        })
         .collect();
-    // The drives' static load where the tool is pressed (free of the surface, the arm at rest
-    // weighs on them far below their limits).
+    // The drives' static load where the tool is pressed, with or without a force (free of the
+    // surface, the arm at rest weighs on them far below their limits).
     let base = BaseMotion::on_vehicle(
         arm,
         &t_world_body.rotation,
@@ -473,13 +476,9 @@ fn follow(
         system.gravity,
         &Vector3::zeros(),
     );
-    let f_base: Vec<Vector3<f64>> = targets.iter().map(|(_, f)| t_base_world.rotation * f).collect();
-    let drive_at = |i: usize, q: &JointVector| {
-        if f_base[i] == Vector3::zeros() {
-            (0.0, 0, 0.0)
-        } else {
-            drive_load(arm, q, &base, &f_base[i])
-        }
+    let drive_at = |i: usize, q: &JointVector| match targets[i].1 {
+        Some(f) => drive_load(arm, q, &base, &(t_base_world.rotation * f)),
+        None => (0.0, 0, 0.0),
     };
     let mut best: Option<Reach> = None;
     for q0 in starts.as_slice() {
@@ -540,16 +539,13 @@ pub fn choose(
     if idx.last() != Some(&(n - 1)) {
         idx.push(n - 1);
     }
-    let targets: Vec<(Isometry3<f64>, Vector3<f64>)> = idx
+    let targets: Vec<(Isometry3<f64>, Option<Vector3<f64>>)> = idx
         .iter()
         .map(|&i| {
             let s = &trajectory.samples[i];
             // The surface pushes back along −k and resists the motion along x_G.
-            let f_env = if matches!(s.phase, Phase::Dwell | Phase::Contact) {
-                -s.k * s.force - s.orientation * Vector3::x() * cfg.drag_n
-            } else {
-                Vector3::zeros()
-            };
+            let f_env = matches!(s.phase, Phase::Dwell | Phase::Contact)
+                .then(|| -s.k * s.force - s.orientation * Vector3::x() * cfg.drag_n);
             (s.pose(), f_env)
         })
         .collect();
@@ -843,6 +839,52 @@ mod tests {
             e.to_string().contains("the drives cannot hold the contact")
                 && e.to_string().contains("joint 2 needs"),
             "{e}"
+        );
+    }
+
+    /// A path followed by position (no force asked for, no drag expected) still loads the
+    /// drives with the arm's weight in water where the tool is pressed: the station's drive
+    /// utilisation is that weight's, at the chosen branch's joint angles.
+    #[test]
+    fn a_path_without_a_force_loads_the_drives_with_the_weight() {
+        let (mb, mut traj, cfg) = coarse_stroke();
+        for s in &mut traj.samples {
+            s.force = 0.0;
+        }
+        let h = choose(&mb, &thrusters(), &traj, &cfg).unwrap();
+        let base = BaseMotion::on_vehicle(
+            &mb.arm,
+            &h.t_world_body.rotation,
+            &Vector6::zeros(),
+            &Vector6::zeros(),
+            mb.gravity,
+            &Vector3::zeros(),
+        );
+        let t_base_world = (h.t_world_body * mb.arm.t_body_base()).inverse();
+        let zero = JointVector::zeros();
+        let mut q = h.q_start;
+        let ratios: Vec<f64> = traj
+            .samples
+            .iter()
+            .map(|s| {
+                q = *mb
+                    .arm
+                    .ik(&(t_base_world * s.pose()), &q)
+                    .unwrap()
+                    .nearest()
+                    .unwrap();
+                let tau = mb.arm.inverse_dynamics(&q, &zero, &zero, &base, None).tau;
+                (0..6)
+                    .map(|i| tau[i].abs() / mb.arm.links[i].torque_limit)
+                    .fold(0.0, f64::max)
+            })
+            .collect();
+        let most = ratios.iter().copied().fold(0.0, f64::max);
+        assert!(ratios[0] > 0.0, "{ratios:?}");
+        assert!(
+            h.drive_utilisation >= ratios[0] - 1e-12 && h.drive_utilisation <= most + 1e-12,
+            "{} against {ratios:?}",
+            h.drive_utilisation
         );
     }
 
