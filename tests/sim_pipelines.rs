@@ -1175,6 +1175,42 @@ fn a_force_beyond_the_thrusters_is_a_failed_run() {
     assert!(!out.join("summary.json").exists() && !out.join("timeseries.csv").exists());
 }
 
+/// A station over a load limit is the least loaded one, taken because none searched was within
+/// the limits: the report says so, naming the key; within them it says nothing of it.
+#[test]
+fn a_station_over_the_thrust_limit_is_said_to_be() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = bottle_run().0.join("config.toml");
+    let text = std::fs::read_to_string(&config).unwrap();
+    assert!(text.contains("max_thrust_utilisation = 0.5\n"));
+    let tight = dir.path().join("tight.toml");
+    std::fs::write(
+        &tight,
+        text.replacen(
+            "max_thrust_utilisation = 0.5\n",
+            "max_thrust_utilisation = 0.3\n",
+            1,
+        ),
+    )
+    .unwrap();
+    for (config, limit) in [(config, 0.5), (tight, 0.3)] {
+        let o = sim_bottle_trajectory(&config, &dir.path().join("o"), &[]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{err}");
+        let s: Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("o/summary.json")).unwrap()).unwrap();
+        let over = s["hover_thrust_utilisation"].as_f64().unwrap() > limit;
+        assert_eq!(over, limit == 0.3, "{s}");
+        assert_eq!(
+            err.contains(&format!(
+                "over sim.hover.max_thrust_utilisation = {limit}: no station searched was within the limits"
+            )),
+            over,
+            "{err}"
+        );
+    }
+}
+
 /// The `config.toml` a `uvms run` writes configures `uvms sim` as it is (its `[sim]` and
 /// `[plan.frames]`): the run's trajectory file simulated again gives the run's time series and
 /// figures bit for bit (the file holds every number as it was).

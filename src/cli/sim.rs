@@ -17,6 +17,7 @@ use crate::mesh::TriangleMesh;
 use crate::model::UvmsModel;
 use crate::output::OutDir;
 use crate::plot::{to_png, to_svg};
+use crate::sim::hover::HoverConfig;
 use crate::sim::record::{Figures, figures, write_csv};
 use crate::sim::{SimConfig, SimSummary, SurfaceFrame, SurfaceSource, check_plant_model, simulate};
 use crate::trajectory::{Phase, Trajectory};
@@ -63,12 +64,29 @@ pub fn resolve_paths(cfg: &mut SimConfig, file: Option<&Path>) {
 const LITTLE_ROOM_RAD: f64 = 0.1;
 
 /// The figures of a run, as readable text.
-pub fn sim_text(s: &SimSummary) -> String {
+pub fn sim_text(s: &SimSummary, hover: &HoverConfig) -> String {
     let mut t = String::new();
     let [x, y, z] = s.hover_position_m;
+    // A station over a load limit is the least loaded of those searched: none was within both.
+    let over: Vec<String> = [
+        (s.hover_thrust_utilisation, hover.max_thrust_utilisation, "thrust"),
+        (s.hover_drive_utilisation, hover.max_drive_utilisation, "drive"),
+    ]
+    .iter()
+    .filter(|(load, limit, _)| load > limit)
+    .map(|(_, limit, what)| format!("sim.hover.max_{what}_utilisation = {limit}"))
+    .collect();
+    let over = if over.is_empty() {
+        String::new()
+    } else {
+        format!(
+            " (over {}: no station searched was within the limits, the least loaded taken)",
+            over.join(" and ")
+        )
+    };
     let _ = writeln!(
         t,
-        "hover        [{x:.3}, {y:.3}, {z:.3}] m, heading {:.1}°, worst manipulability {:.4}, contact held with {:.0} % of a thruster's thrust and {:.0} % of a drive's torque",
+        "hover        [{x:.3}, {y:.3}, {z:.3}] m, heading {:.1}°, worst manipulability {:.4}, contact held with {:.0} % of a thruster's thrust and {:.0} % of a drive's torque{over}",
         s.hover_yaw_deg,
         s.hover_manipulability,
         100.0 * s.hover_thrust_utilisation,
@@ -353,7 +371,7 @@ pub fn sim_stage(
         // The summary says it too: a script reading it sees the failure, not just figures.
         map.insert("failure".into(), e.to_string().into());
     }
-    let mut text = sim_text(&run.summary);
+    let mut text = sim_text(&run.summary, &cfg.hover);
     let _ = writeln!(
         text,
         "wrote        timeseries.csv, joint_moments/force/deviations/joints .svg and .png in {}",
