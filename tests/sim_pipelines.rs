@@ -1077,10 +1077,36 @@ fn a_trajectory_planned_with_other_frames_is_refused() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
-        err.contains("trajectory.csv: was planned with the scan frame 0.010 m") && err.lines().count() == 1,
+        err.contains("trajectory.csv: was planned with the scan frame 0.010 m")
+            && err.contains("frames.toml's [frames]")
+            && err.lines().count() == 1,
         "{err}"
     );
     assert!(!dir.path().join("o").exists());
+    // Without --config the default frames are the ones compared, and the message says so.
+    let text = std::fs::read_to_string(bottle_run().0.join("trajectory.csv")).unwrap();
+    let moved = text.replacen(",0.3],[0.0,0.0,0.0,1.0]]", ",0.31],[0.0,0.0,0.0,1.0]]", 1);
+    assert_ne!(moved, text);
+    let trajectory = dir.path().join("trajectory.csv");
+    std::fs::write(&trajectory, moved).unwrap();
+    let out = dir.path().join("o");
+    let o = run(&[
+        "sim",
+        "--trajectory",
+        trajectory.to_str().unwrap(),
+        "--surface",
+        surface.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("0.010 m and 0.00° from where the default [frames] (no --config) put it")
+            && err.contains("give --config the plan's configuration"),
+        "{err}"
+    );
+    assert!(!out.exists());
 }
 
 /// A contact surface wound inside out (every triangle turned round: the trajectory's

@@ -539,7 +539,12 @@ fn deviation_failure(summary: &SimSummary, cfg: &SimConfig) -> Option<Error> {
 /// A surface in the scan frame is placed in the world by the configuration's `[frames]`: they
 /// must be the frames the trajectory was planned with (its note), or the tool runs along a
 /// surface that is elsewhere.
-fn check_frames(trajectory: &Trajectory, file: &Path, cfg: &SimCommandConfig) -> Result<()> {
+fn check_frames(
+    trajectory: &Trajectory,
+    file: &Path,
+    cfg: &SimCommandConfig,
+    config: Option<&Path>,
+) -> Result<()> {
     if cfg.sim.surface_frame == SurfaceFrame::World {
         return Ok(());
     }
@@ -551,11 +556,20 @@ fn check_frames(trajectory: &Trajectory, file: &Path, cfg: &SimCommandConfig) ->
     if moved <= 1e-6 && turned_deg <= 1e-6f64.to_degrees() {
         return Ok(());
     }
+    let (whose, remedy) = match config {
+        Some(c) => (
+            format!("{}'s [frames]", c.display()),
+            "give [frames] the frames of the plan",
+        ),
+        None => (
+            "the default [frames] (no --config)".to_string(),
+            "give --config the plan's configuration (a run's config.toml holds it)",
+        ),
+    };
     Err(Error::input(
         origin,
         format!(
-            "was planned with the scan frame {:.3} m and {:.2}° from where the configuration's [frames] put it (camera_in_vehicle, vehicle_in_world): the surface, in the scan frame (sim.surface_frame), would not be where the trajectory runs; give [frames] the frames of the plan",
-            moved, turned_deg
+            "was planned with the scan frame {moved:.3} m and {turned_deg:.2}° from where {whose} put it (camera_in_vehicle, vehicle_in_world): the surface, in the scan frame (sim.surface_frame), would not be where the trajectory runs; {remedy}"
         ),
     ))
 }
@@ -604,7 +618,7 @@ pub fn run(args: &SimArgs, ctx: &Ctx) -> Result<Report> {
         ));
     }
     let trajectory = Trajectory::read_csv(&args.trajectory)?;
-    check_frames(&trajectory, &args.trajectory, &cfg)?;
+    check_frames(&trajectory, &args.trajectory, &cfg, args.config.as_deref())?;
     let in_config = |e| super::named_in(e, args.config.as_deref(), &[("", vec!["sim".into()])]);
     // What the trajectory's own length makes too long a run is the file's.
     crate::sim::check_trajectory(&trajectory, &cfg.sim, &args.trajectory.display().to_string())
