@@ -726,6 +726,19 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         "{err}"
     );
     assert!(!o8.exists(), "files left");
+    // A missing file is named by its key in the pipeline too.
+    let p = pipeline_with(
+        "soil_sampling",
+        dir.path(),
+        "noscan.toml",
+        &[(&scan, "scan = \"nope.ply\"")],
+    );
+    let err = refused(&["run", p.to_str().unwrap(), "--out", o8.to_str().unwrap()], 2);
+    assert!(
+        err.contains("noscan.toml: input.scan: ") && err.contains("nope.ply: no such file"),
+        "{err}"
+    );
+    assert!(!o8.exists(), "files left");
     // What only the plan tells (a turn so slow the run would take 10¹⁴ periods): found once
     // the plan is made, before its stage writes: nothing written, the folder made gone again.
     let p = variant(dir.path(), "[plan.tool]\nmax_rate_deg_s = 1e-9");

@@ -170,7 +170,7 @@ pub fn run(args: &PlanArgs, _ctx: &Ctx) -> Result<Report> {
         up: args.up.map(|v| [v.x, v.y, v.z]),
         init: args.init.clone(),
     };
-    let mut files: Vec<&Path> = inputs.files();
+    let mut files: Vec<&Path> = inputs.files().into_iter().map(|(_, f)| f).collect();
     files.extend(args.config.as_deref());
     files.extend(cfg.plan.polyline.file.as_deref());
     let out = OutDir::create(&args.out, &files, &products())?;
@@ -224,12 +224,12 @@ impl Default for PlanInputs {
 }
 
 impl PlanInputs {
-    /// The files read.
-    pub fn files(&self) -> Vec<&Path> {
-        let mut v: Vec<&Path> = vec![&self.scan];
-        v.extend(self.reference.as_deref());
-        v.extend(self.ground_truth.as_deref());
-        v.extend(init_file(&self.init));
+    /// The files read, each with its key.
+    pub fn files(&self) -> Vec<(&'static str, &Path)> {
+        let mut v: Vec<(&'static str, &Path)> = vec![("scan", &self.scan)];
+        v.extend(self.reference.as_deref().map(|f| ("reference", f)));
+        v.extend(self.ground_truth.as_deref().map(|f| ("ground_truth", f)));
+        v.extend(init_file(&self.init).map(|f| ("init", f)));
         v
     }
 }

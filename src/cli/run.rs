@@ -158,15 +158,30 @@ pub fn run(args: &RunArgs, ctx: &Ctx) -> Result<Report> {
             .map_or("run".into(), |s| s.to_os_string());
         Path::new("out").join(name)
     });
-    let mut inputs = p.input.files();
-    inputs.push(&args.pipeline);
-    inputs.extend(p.sim.surface.as_deref());
-    inputs.extend(p.sim.model.as_deref());
-    inputs.extend(p.plan.polyline.file.as_deref());
+    let mut keyed: Vec<(String, &Path)> = p
+        .input
+        .files()
+        .into_iter()
+        .map(|(key, f)| (format!("input.{key}"), f))
+        .collect();
+    keyed.extend(p.sim.surface.as_deref().map(|f| ("sim.surface".into(), f)));
+    keyed.extend(p.sim.model.as_deref().map(|f| ("sim.model".into(), f)));
+    keyed.extend(
+        p.plan
+            .polyline
+            .file
+            .as_deref()
+            .map(|f| ("plan.polyline.file".into(), f)),
+    );
     // A missing or bad input of a late stage is found before the first stage writes anything.
-    if let Some(missing) = inputs.iter().find(|f| !f.exists()) {
-        return Err(Error::input(missing.display(), "no such file"));
+    if let Some((key, missing)) = keyed.iter().find(|(_, f)| !f.exists()) {
+        return Err(Error::input(
+            format!("{}: {key}", args.pipeline.display()),
+            format!("{}: no such file", missing.display()),
+        ));
     }
+    let mut inputs: Vec<&Path> = keyed.iter().map(|(_, f)| *f).collect();
+    inputs.push(&args.pipeline);
     let in_pipeline = |e| named_in(e, Some(&args.pipeline), &[("", vec!["sim".into()])]);
     let sim_inputs = load_sim_inputs(&p.sim, &p.plan.frames).map_err(in_pipeline)?;
     let mut products = super::plan::products();

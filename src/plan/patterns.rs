@@ -267,7 +267,10 @@ pub fn validate(
         &at("spacing_m", raster.spacing_m),
     )?;
     if !(ring.arc_deg.is_finite() && (0.0..=360.0).contains(&ring.arc_deg)) {
-        return Err(Error::input("ring.arc_deg", "must be between 0 and 360"));
+        return Err(Error::input(
+            "ring.arc_deg",
+            format!("must be between 0 and 360, got {}", ring.arc_deg),
+        ));
     }
     let [rx, ry] = raster.offset_m;
     let [lx, ly] = line.offset_m;

@@ -82,7 +82,7 @@ impl TimingConfig {
         if self.force_ramp_s > self.dwell_s {
             return Err(Error::input(
                 "timing.force_ramp_s",
-                "must not be longer than timing.dwell_s (the force rises while the first point is held)",
+                "must not be longer than dwell_s, the first point's hold (the force rises while it is held)",
             ));
         }
         positive("timing.retreat_speed_m_s", self.retreat_speed_m_s)?;
