@@ -384,7 +384,13 @@ pub fn register(
         icp.last_step.1
     );
     if !icp.converged {
-        return Err(Error::failed("icp", format!("did not converge: {reached}")));
+        return Err(Error::failed(
+            "icp",
+            format!(
+                "did not converge: {reached}: still moving after [register.icp] max_iterations = {} a round; a direction the scan barely constrains, such as a body of revolution's turn about its axis, drifts with the noise: a larger [register.icp] degenerate_ratio (1e-2) holds it, more max_iterations let it settle",
+                cfg.icp.max_iterations
+            ),
+        ));
     }
     if scan_fitness < cfg.min_fitness {
         return Err(Error::failed(
