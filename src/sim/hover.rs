@@ -860,20 +860,11 @@ mod tests {
             mb.gravity,
             &Vector3::zeros(),
         );
-        let t_base_world = (h.t_world_body * mb.arm.t_body_base()).inverse();
         let zero = JointVector::zeros();
-        let mut q = h.q_start;
-        let ratios: Vec<f64> = traj
-            .samples
+        let ratios: Vec<f64> = followed(&mb, &traj, &h)
             .iter()
-            .map(|s| {
-                q = *mb
-                    .arm
-                    .ik(&(t_base_world * s.pose()), &q)
-                    .unwrap()
-                    .nearest()
-                    .unwrap();
-                let tau = mb.arm.inverse_dynamics(&q, &zero, &zero, &base, None).tau;
+            .map(|q| {
+                let tau = mb.arm.inverse_dynamics(q, &zero, &zero, &base, None).tau;
                 (0..6)
                     .map(|i| tau[i].abs() / mb.arm.links[i].torque_limit)
                     .fold(0.0, f64::max)
