@@ -114,7 +114,7 @@ impl Default for IcpConfig {
             rotation_tolerance_rad: 1e-5,
             translation_tolerance_m: 1e-6,
             motion_tolerance: 1e-2,
-            degenerate_ratio: 1e-3,
+            degenerate_ratio: 1e-2,
             min_correspondences: 30,
             max_source_points: 20_000,
         }

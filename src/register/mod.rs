@@ -387,8 +387,8 @@ pub fn register(
         return Err(Error::failed(
             "icp",
             format!(
-                "did not converge: {reached}: still moving after [register.icp] max_iterations = {} a round; a direction the scan barely constrains, such as a body of revolution's turn about its axis, drifts with the noise: a larger [register.icp] degenerate_ratio (1e-2) holds it, more max_iterations let it settle",
-                cfg.icp.max_iterations
+                "did not converge: {reached}: still moving after [register.icp] max_iterations = {} a round; a direction the scan barely constrains, such as a body of revolution's turn about its axis, drifts with the noise: a [register.icp] degenerate_ratio larger than {} holds it, more max_iterations let it settle",
+                cfg.icp.max_iterations, cfg.icp.degenerate_ratio
             ),
         ));
     }
