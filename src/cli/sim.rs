@@ -384,14 +384,6 @@ pub fn sim_stage(
     })
 }
 
-/// A failed run when the trajectory's contact phase asks the tool to touch the surface (a force,
-/// or points inside the material, `depth_m` deep at most) and it never did (a surface that is
-/// not the one the trajectory was planned on, or in another frame): the figures of such a run
-/// describe no contact operation; or when, once touched, the tool lost the surface during the
-/// dwell or the contact phase (the vehicle or the drives could not hold the contact, no force
-/// loop): the operation was not carried out along the whole path. A phase that asks for no
-/// force along or above the surface (or so little inside it that the surface's spring there
-/// pushes less than `sim.dwell.tolerance_n`) may skim it untouched, and leave it.
 /// The force asked for in contact: `60.0`, or `40.0–65.0` where it varies along the path.
 fn setpoint_text(fig: &Figures) -> String {
     if fig.force_setpoint_min_n == fig.force_setpoint_n {
@@ -401,6 +393,14 @@ fn setpoint_text(fig: &Figures) -> String {
     }
 }
 
+/// A failed run when the trajectory's contact phase asks the tool to touch the surface (a force,
+/// or points inside the material, `depth_m` deep at most) and it never did (a surface that is
+/// not the one the trajectory was planned on, or in another frame): the figures of such a run
+/// describe no contact operation; or when, once touched, the tool lost the surface during the
+/// dwell or the contact phase (the vehicle or the drives could not hold the contact, no force
+/// loop): the operation was not carried out along the whole path. A phase that asks for no
+/// force along or above the surface (or so little inside it that the surface's spring there
+/// pushes less than `sim.dwell.tolerance_n`) may skim it untouched, and leave it.
 fn operation_failure(
     trajectory: &Trajectory,
     depth_m: Option<f64>,

@@ -426,8 +426,8 @@ fn follow_every_sample(
 }
 
 /// Follows each IK branch of the first target along `targets` (world tool poses, with the
-/// environment's expected force on the tool where it is pressed: none where it is free) for the vehicle of `system` at `t_world_body`;
-/// the best branch. A branch is given up as soon as it cannot beat `bar` (the best candidate
+/// environment's expected force on the tool where it is pressed: none where it is free) for
+/// the vehicle of `system` at `t_world_body`; the best branch. A branch is given up as soon as it cannot beat `bar` (the best candidate
 /// so far).
 fn follow(
     system: &Multibody,
