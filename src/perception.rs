@@ -25,12 +25,12 @@ use crate::error::{Error, Result};
 use crate::frames::Pose;
 use crate::mesh::TriangleMesh;
 use crate::register::{InitMode, ReferenceModel, RegisterConfig, Registration, ScanNormals, register};
-use crate::segment::cluster::{Cluster, ClusterConfig, euclidean_clusters};
+use crate::segment::cluster::{Cluster, ClusterConfig, Clustering, euclidean_clusters};
 use crate::segment::seabed::{SeabedConfig, SeabedFit, find_seabed, object_side};
 use crate::segment::select::{SelectConfig, Selection, select_cluster, span_score, spans_text};
 use crate::spatial::KdIndex;
 use crate::surface::Surface;
-use crate::triangulate::{SurfaceConfig, triangulate_view};
+use crate::triangulate::{SurfaceConfig, median_spacing, triangulate_view};
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -341,6 +341,9 @@ pub fn segment(
     let clusters = timings.time("cluster", || -> Result<Vec<Cluster>> {
         if cfg.cluster.enabled {
             let found = euclidean_clusters(&side_points, &cfg.cluster)?;
+            if found.clusters.is_empty() {
+                return Err(no_cluster(&side_points, &found, reference_spans, &cfg.cluster));
+            }
             // Back to indices into the cleaned cloud.
             Ok(found
                 .clusters
@@ -422,6 +425,36 @@ pub struct CheckResult {
     pub truth: Option<TruthErrors>,
     /// Wall time per stage (segmentation's stages included).
     pub timings: Timings,
+}
+
+/// The failure of a clustering that found no cluster, with what it found: the points above the
+/// seabed in clusters too small (a scan sparser than the link's length) or too large, and a hint
+/// at the units when the points span a thousand times the reference.
+fn no_cluster(
+    points: &[Point3<f64>],
+    found: &Clustering,
+    reference_spans: Option<&Vector3<f64>>,
+    cfg: &ClusterConfig,
+) -> Error {
+    let spacing = KdIndex::new(points).map_or(0.0, |index| median_spacing(points, &index));
+    // Points a tenth of the reference's size apart are the scan's units, not its density.
+    let units = match reference_spans {
+        Some(r) if spacing > 0.1 * r.max() => "; the scan in millimetres? (PLY coordinates must be metres)",
+        _ => "",
+    };
+    Error::failed(
+        "cluster",
+        format!(
+            "no cluster above the seabed: of its {} points, {} lie in clusters of fewer than perception.cluster.min_points = {} and {} clusters exceed max_points = {}, linked within perception.cluster.tolerance_m = {} m, while a point's nearest lies {} m from it (median): a scan sparser than the link, such as one from a far camera, needs a longer link{units}",
+            points.len(),
+            found.small_points,
+            cfg.min_points,
+            found.large_clusters,
+            cfg.max_points,
+            cfg.tolerance_m,
+            crate::config::shown_significant(spacing, 2)
+        ),
+    )
 }
 
 /// Segments the scan (unless `whole_scan`), registers `model` onto the object, triangulates the

@@ -271,6 +271,54 @@ fn no_cluster_fitting_the_reference_is_exit_1() {
     assert!(stderr(&o).contains("the scan in millimetres?"), "{}", stderr(&o));
 }
 
+/// A clustering that finds no cluster says what it found: the bottle seen from 2.5 m, its points
+/// 11 mm apart, farther than the 10 mm link; and the committed scan in millimetres, whose
+/// points lie metres apart in the file's numbers, is named as such.
+#[test]
+fn no_cluster_says_how_far_apart_the_points_lie() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("far.toml");
+    std::fs::write(&scene, "[camera]\ndistance_m = 2.5\n").unwrap();
+    let far = dir.path().join("far");
+    let o = run(&[
+        "synth",
+        "--config",
+        scene.to_str().unwrap(),
+        "--out",
+        far.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (cloud, _) = uvms::io::ply::read_cloud(&data("scans/bottle/scan.ply")).unwrap();
+    let in_mm = dir.path().join("mm.ply");
+    let pts: Vec<[f64; 3]> = cloud
+        .points
+        .iter()
+        .map(|p| [1e3 * p.x, 1e3 * p.y, 1e3 * p.z])
+        .collect();
+    write_ply_points(&in_mm, &pts);
+    for (scan, reference, mm) in [
+        (far.join("scan.ply"), far.join("reference.ply"), false),
+        (in_mm, data("models/bottle.ply"), true),
+    ] {
+        let o = run(&[
+            "check",
+            scan.to_str().unwrap(),
+            "--reference",
+            reference.to_str().unwrap(),
+        ]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{e}");
+        assert!(
+            e.contains("cluster: no cluster above the seabed")
+                && e.contains("perception.cluster.tolerance_m = 0.01 m, while a point's nearest lies")
+                && e.lines().count() == 1,
+            "{e}"
+        );
+        assert_eq!(e.contains("the scan in millimetres?"), mm, "{e}");
+    }
+}
+
 #[test]
 fn icp_not_converged_is_exit_1_with_what_it_reached() {
     let dir = tempfile::tempdir().unwrap();
