@@ -235,8 +235,9 @@ pub struct TruthErrors {
     pub rotation_error_deg: f64,
     /// Angle between the model's distinct axis ([`distinct_axis`]) under the estimated and the
     /// true pose, degrees: the rotation error without the turn about that axis, which is all a
-    /// scan of a body of revolution (the bottle) can show.
-    pub axis_error_deg: f64,
+    /// scan of a body of revolution (the bottle) can show. None for a model none of whose
+    /// principal axes stands apart (a cube, a sphere).
+    pub axis_error_deg: Option<f64>,
     /// Distance between their translations, metres.
     pub translation_error_m: f64,
     /// ADD-S: mean closest-point distance between the model under the true and the estimated
@@ -247,11 +248,15 @@ pub struct TruthErrors {
 }
 
 /// The principal axis of a covariance whose variance stands apart from the other two: the axis
-/// of revolution of a body of revolution (the long axis of a bottle, the normal of a disc).
-pub fn distinct_axis(covariance: &Matrix3<f64>) -> Vector3<f64> {
+/// of revolution of a body of revolution (the long axis of a bottle, the normal of a disc). It
+/// stands apart when its variance's gap to the nearer of the other two is at least twice the
+/// gap between those two and a thousandth of the largest variance; None otherwise (a cube, a
+/// sphere: every axis alike).
+pub fn distinct_axis(covariance: &Matrix3<f64>) -> Option<Vector3<f64>> {
     let (v, axes) = sorted_eigen(covariance);
-    let k = if v[0] - v[1] >= v[1] - v[2] { 0 } else { 2 };
-    axes.column(k).into_owned()
+    let (g01, g12) = (v[0] - v[1], v[1] - v[2]);
+    let (k, gap, other) = if g01 >= g12 { (0, g01, g12) } else { (2, g12, g01) };
+    (gap > 1e-3 * v[0] && gap >= 2.0 * other).then(|| axes.column(k).into_owned())
 }
 
 /// Distance from a point to the closest point of the model under the estimated pose.
@@ -280,10 +285,11 @@ pub fn truth_errors(
         .or_else(|| mean_covariance(model))
         .map(|(_, c)| c)
         .unwrap_or_else(Matrix3::identity);
-    let axis = distinct_axis(&covariance);
-    let axis_error_deg = (estimate.rotation * axis)
-        .angle(&(truth.rotation * axis))
-        .to_degrees();
+    let axis_error_deg = distinct_axis(&covariance).map(|axis| {
+        (estimate.rotation * axis)
+            .angle(&(truth.rotation * axis))
+            .to_degrees()
+    });
     let closest: Box<ClosestDistance> = match mesh {
         Some(m) => {
             let surface = Surface::new(&m.transformed(estimate))?;
@@ -386,9 +392,28 @@ mod tests {
             })
             .collect();
         for (points, axis) in [(tube, Vector3::x()), (ring, Vector3::z())] {
-            let a = distinct_axis(&mean_covariance(&points).unwrap().1);
+            let a = distinct_axis(&mean_covariance(&points).unwrap().1).unwrap();
             assert!(a.dot(&axis).abs() > 1.0 - 1e-6, "{a}");
         }
+        // A cube's corners, and a box whose middle variance lies midway: no axis stands apart.
+        let corners = |s: [f64; 3]| -> Vec<Point3<f64>> {
+            (0..8)
+                .map(|i| {
+                    Point3::new(
+                        s[0] * f64::from(i & 1),
+                        s[1] * f64::from((i >> 1) & 1),
+                        s[2] * f64::from(i >> 2),
+                    )
+                })
+                .collect()
+        };
+        for s in [[1.0, 1.0, 1.0], [1.0, 0.75, 0.3]] {
+            let c = mean_covariance(&corners(s)).unwrap().1;
+            assert_eq!(distinct_axis(&c), None, "{s:?}");
+        }
+        // A box twice as long as it is wide and deep has its long axis.
+        let a = distinct_axis(&mean_covariance(&corners([1.0, 0.5, 0.45])).unwrap().1).unwrap();
+        assert!(a.x.abs() > 1.0 - 1e-9, "{a}");
     }
 
     #[test]
@@ -407,10 +432,10 @@ mod tests {
         assert!(e.add_m > 0.04);
         assert!((e.rotation_error_deg - 0.5f64.to_degrees()).abs() < 1e-9);
         // The ring's axis (its normal) did not move; tilted about x, it turns with the tilt.
-        assert!(e.axis_error_deg < 1e-6, "{e:?}");
+        assert!(e.axis_error_deg.unwrap() < 1e-6, "{e:?}");
         let tilted = turned * Isometry3::rotation(Vector3::x() * 0.2);
         let e = truth_errors(&model, None, &tilted, &truth).unwrap();
-        assert!((e.axis_error_deg - 0.2f64.to_degrees()).abs() < 1e-6, "{e:?}");
+        assert!((e.axis_error_deg.unwrap() - 0.2f64.to_degrees()).abs() < 1e-6, "{e:?}");
         let shifted = Translation3::new(0.002, 0.0, 0.0) * truth;
         let e = truth_errors(&model, None, &shifted, &truth).unwrap();
         assert!((e.translation_error_m - 0.002).abs() < 1e-12);

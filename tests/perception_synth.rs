@@ -68,7 +68,7 @@ fn twenty_scenes(pixel_stride: u32) {
             1e3 * e.translation_error_m,
             1e3 * e.add_s_m,
             e.rotation_error_deg,
-            e.axis_error_deg,
+            e.axis_error_deg.unwrap(),
             1e3 * r.accuracy.rms_m,
             1e3 * r.accuracy.max_m,
             1e3 * true_err.rms_m,
@@ -83,7 +83,7 @@ fn twenty_scenes(pixel_stride: u32) {
             worst.1.max(e.add_s_m),
             worst.2.min(ratio),
             worst.3.max(ratio),
-            worst.4.max(e.axis_error_deg),
+            worst.4.max(e.axis_error_deg.unwrap()),
         );
     }
     eprintln!(

@@ -180,10 +180,12 @@ pub fn check_text(r: &CheckResult) -> String {
         row("rotation error", format!("{:.4}°", e.rotation_error_deg));
         row(
             "axis error",
-            format!(
-                "{:.4}° (the model's most distinct principal axis, as a body of revolution's own axis: the rotation error without the turn about it)",
-                e.axis_error_deg
-            ),
+            match e.axis_error_deg {
+                Some(a) => format!(
+                    "{a:.4}° (the model's most distinct principal axis, as a body of revolution's own axis: the rotation error without the turn about it)"
+                ),
+                None => "none (no principal axis of the model stands apart from the other two)".into(),
+            },
         );
         row(
             "translation error",
