@@ -435,7 +435,10 @@ mod tests {
         assert!(e.axis_error_deg.unwrap() < 1e-6, "{e:?}");
         let tilted = turned * Isometry3::rotation(Vector3::x() * 0.2);
         let e = truth_errors(&model, None, &tilted, &truth).unwrap();
-        assert!((e.axis_error_deg.unwrap() - 0.2f64.to_degrees()).abs() < 1e-6, "{e:?}");
+        assert!(
+            (e.axis_error_deg.unwrap() - 0.2f64.to_degrees()).abs() < 1e-6,
+            "{e:?}"
+        );
         let shifted = Translation3::new(0.002, 0.0, 0.0) * truth;
         let e = truth_errors(&model, None, &shifted, &truth).unwrap();
         assert!((e.translation_error_m - 0.002).abs() < 1e-12);
