@@ -19,6 +19,23 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// `uvms synth` of the scene configured by `toml`, into a folder of `dir`: that folder.
+fn synth_scene(dir: &Path, toml: &str) -> PathBuf {
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, toml).unwrap();
+    let out = dir.join("scene");
+    let o = run(&[
+        "synth",
+        "--config",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    out
+}
+
 fn write_ply_points(path: &Path, pts: &[[f64; 3]]) {
     let mut s = format!(
         "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nend_header\n",
@@ -277,18 +294,7 @@ fn no_cluster_fitting_the_reference_is_exit_1() {
 #[test]
 fn no_cluster_says_how_far_apart_the_points_lie() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("far.toml");
-    std::fs::write(&scene, "[camera]\ndistance_m = 2.5\n").unwrap();
-    let far = dir.path().join("far");
-    let o = run(&[
-        "synth",
-        "--config",
-        scene.to_str().unwrap(),
-        "--out",
-        far.to_str().unwrap(),
-        "--quiet",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let far = synth_scene(dir.path(), "[camera]\ndistance_m = 2.5\n");
     let (cloud, _) = uvms::io::ply::read_cloud(&data("scans/bottle/scan.ply")).unwrap();
     let in_mm = dir.path().join("mm.ply");
     let pts: Vec<[f64; 3]> = cloud
@@ -347,22 +353,10 @@ fn icp_not_converged_is_exit_1_with_what_it_reached() {
 #[test]
 fn a_bottle_s_turn_drifting_with_the_noise_is_held() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("scene.toml");
-    std::fs::write(
-        &scene,
+    let s = synth_scene(
+        dir.path(),
         "seed = 11\nscene = \"bottle\"\n[object.bottle]\nbody_diameter_m = 0.2\nlength_m = 0.45\n",
-    )
-    .unwrap();
-    let s = dir.path().join("s");
-    let o = run(&[
-        "synth",
-        "--config",
-        scene.to_str().unwrap(),
-        "--out",
-        s.to_str().unwrap(),
-        "--quiet",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    );
     let (scan, reference, truth) = (s.join("scan.ply"), s.join("reference.ply"), s.join("truth.json"));
     let check = |extra: &[&str]| {
         let args = [
