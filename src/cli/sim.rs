@@ -114,7 +114,7 @@ pub fn sim_text(s: &SimSummary, hover: &HoverConfig) -> String {
     // without a force setpoint (soil: the tool pushed by position alone) has no error to it.
     let force = match (fig.force_settled_mean_n.is_finite(), fig.force_setpoint_n > 0.0) {
         (false, _) => "no settled force".to_string(),
-        (true, true) if fig.force_setpoint_min_n == fig.force_setpoint_n => format!(
+        (true, true) if !fig.setpoint_varies() => format!(
             "settled mean {:.2} N (min {:.2}, RMS error {:.2}), overshoot {:.2} N",
             fig.force_settled_mean_n, fig.force_settled_min_n, fig.force_rms_error_n, fig.force_overshoot_n
         ),
@@ -386,10 +386,10 @@ pub fn sim_stage(
 
 /// The force asked for in contact: `60.0`, or `40.0–65.0` where it varies along the path.
 fn setpoint_text(fig: &Figures) -> String {
-    if fig.force_setpoint_min_n == fig.force_setpoint_n {
-        format!("{:.1}", fig.force_setpoint_n)
-    } else {
+    if fig.setpoint_varies() {
         format!("{:.1}–{:.1}", fig.force_setpoint_min_n, fig.force_setpoint_n)
+    } else {
+        format!("{:.1}", fig.force_setpoint_n)
     }
 }
 

@@ -476,8 +476,13 @@ fn follow(
         system.gravity,
         &Vector3::zeros(),
     );
-    let drive_at = |i: usize, q: &JointVector| match targets[i].1 {
-        Some(f) => drive_load(arm, q, &base, &(t_base_world.rotation * f)),
+    // The forces in the base frame, once for every branch.
+    let f_base: Vec<Option<Vector3<f64>>> = targets
+        .iter()
+        .map(|(_, f)| f.map(|f| t_base_world.rotation * f))
+        .collect();
+    let drive_at = |i: usize, q: &JointVector| match &f_base[i] {
+        Some(f) => drive_load(arm, q, &base, f),
         None => (0.0, 0, 0.0),
     };
     let mut best: Option<Reach> = None;

@@ -250,6 +250,13 @@ pub struct Figures {
     pub force_offset_max_m: f64,
 }
 
+impl Figures {
+    /// Whether the force asked for in contact varies along the path.
+    pub fn setpoint_varies(&self) -> bool {
+        self.force_setpoint_min_n != self.force_setpoint_n
+    }
+}
+
 /// Collects the rows and the running figures.
 #[derive(Debug, Clone)]
 pub struct Recorder {
