@@ -252,6 +252,15 @@ impl Surface {
         })
     }
 
+    /// The distance from `p` to the surface when it is at most `max_distance`; `None` beyond
+    /// (the tree's search stops there).
+    pub fn distance_within(&self, p: &Point3<f64>, max_distance: f64) -> Option<f64> {
+        let q = g(p);
+        self.mesh
+            .project_local_point_with_max_dist(q, false, max_distance)
+            .map(|proj| (proj.point - q).length())
+    }
+
     /// The closest point of the surface to `p`.
     pub fn project(&self, p: &Point3<f64>) -> Projection {
         let (proj, (tri, loc)) = self.mesh.project_local_point_and_get_location(g(p), false);
@@ -416,7 +425,7 @@ pub fn convex_hull_vertices(points: &[Point3<f64>]) -> Option<Vec<usize>> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// The rim of an open mesh: a fan of three triangles around the vertex 0 at the middle of

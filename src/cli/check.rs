@@ -153,7 +153,8 @@ pub fn check_text(r: &CheckResult) -> String {
     row(
         "fitness",
         format!(
-            "{:.3} (within {:.2} mm)",
+            "{:.3} of the scanned object, {:.3} of the model's visible points (within {:.2} mm)",
+            reg.scan_fitness,
             reg.fitness,
             1e3 * reg.evaluation_distance_m
         ),
