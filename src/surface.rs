@@ -266,9 +266,19 @@ impl Surface {
         let r = 0.5 * (hi - lo).norm();
         let (mut out, mut inward) = (0usize, 0usize);
         for k in (0..27).filter(|&k| k != 13) {
-            let d = Vector3::new((k % 3) as f64 - 1.0, ((k / 3) % 3) as f64 - 1.0, (k / 9) as f64 - 1.0)
+            let d = Vector3::new(
+                (k % 3) as f64 - 1.0,
+                ((k / 3) % 3) as f64 - 1.0,
+                (k / 9) as f64 - 1.0,
+            )
+            .normalize();
+            let u = d
+                .cross(&if d.x.abs() < 0.9 {
+                    Vector3::x()
+                } else {
+                    Vector3::y()
+                })
                 .normalize();
-            let u = d.cross(&if d.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() }).normalize();
             let v = d.cross(&u);
             for (i, j) in (0..GRID).flat_map(|i| (0..GRID).map(move |j| (i, j))) {
                 let at = |i: usize| r * (2.0 * (i as f64 + 0.5) / GRID as f64 - 1.0);

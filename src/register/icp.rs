@@ -169,7 +169,11 @@ impl IcpConfig {
             return bad("gate_shrink", "must be in (0, 1]", self.gate_shrink);
         }
         if !(self.max_normal_angle_deg > 0.0 && self.max_normal_angle_deg <= 180.0) {
-            return bad("max_normal_angle_deg", "must be in (0, 180]", self.max_normal_angle_deg);
+            return bad(
+                "max_normal_angle_deg",
+                "must be in (0, 180]",
+                self.max_normal_angle_deg,
+            );
         }
         if !(self.degenerate_ratio >= 0.0 && self.degenerate_ratio < 1.0) {
             return bad("degenerate_ratio", "must be in [0, 1)", self.degenerate_ratio);
@@ -583,7 +587,10 @@ mod tests {
             out.t_target_source.translation.vector
         };
         let (dropped, kept) = (run(IcpConfig::default().max_normal_angle_deg), run(180.0));
-        assert!(dropped.norm() < 5e-4 && (kept.z - 0.03).abs() < 1e-3, "{dropped} {kept}");
+        assert!(
+            dropped.norm() < 5e-4 && (kept.z - 0.03).abs() < 1e-3,
+            "{dropped} {kept}"
+        );
     }
 
     #[test]
@@ -643,10 +650,7 @@ mod tests {
                 max_normal_angle_deg: angle,
                 ..IcpConfig::default()
             };
-            assert_bad_input(
-                cfg.validate("register.icp"),
-                "register.icp.max_normal_angle_deg",
-            );
+            assert_bad_input(cfg.validate("register.icp"), "register.icp.max_normal_angle_deg");
         }
         IcpConfig::default().validate("register.icp").unwrap();
     }

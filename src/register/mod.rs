@@ -102,7 +102,9 @@ impl ReferenceModel {
     ) -> Result<Self> {
         crate::cloud::object_size(what, &points)?;
         let winding = match &mesh {
-            Some(m) => Surface::new(m).map_err(|e| Error::input(what, e))?.winding_faces_out(),
+            Some(m) => Surface::new(m)
+                .map_err(|e| Error::input(what, e))?
+                .winding_faces_out(),
             None => None,
         };
         if winding == Some(false) {
@@ -293,7 +295,12 @@ pub struct Registration {
 /// a mesh's samples instead, a point between samples reads as far as half their spacing, and the
 /// fraction of a correct alignment would depend on `mesh_samples` (a 1 m box read 0.35 at the
 /// default and 0.98 at ten times as many).
-fn scan_fitness(model: &ReferenceModel, scan: &[Point3<f64>], t_scan_reference: &Pose, dist: f64) -> Result<f64> {
+fn scan_fitness(
+    model: &ReferenceModel,
+    scan: &[Point3<f64>],
+    t_scan_reference: &Pose,
+    dist: f64,
+) -> Result<f64> {
     let to_model = t_scan_reference.inverse();
     let Some(mesh) = &model.mesh else {
         return Ok(evaluate(scan, &model.index, &to_model, dist).0);
