@@ -252,56 +252,6 @@ impl Surface {
         })
     }
 
-    /// Which way the triangles' winding faces where the surface is seen from outside: rays cast
-    /// at it from the 26 directions of a cube's faces, edges and corners, 64 from each, meet
-    /// triangles facing the rays' origin (`Some(true)`: the winding faces out), facing away
-    /// (`Some(false)`: it faces in), or both (`None`: a mixed winding, or an open sheet seen
-    /// from both sides). Nine in ten of the hits that are not grazing (a cosine under 0.1) must
-    /// agree.
-    pub fn winding_faces_out(&self) -> Option<bool> {
-        const GRID: usize = 8;
-        let aabb = self.mesh.local_aabb();
-        let (lo, hi) = (na(aabb.mins), na(aabb.maxs));
-        let centre = nalgebra::center(&lo, &hi);
-        let r = 0.5 * (hi - lo).norm();
-        let (mut out, mut inward) = (0usize, 0usize);
-        for k in (0..27).filter(|&k| k != 13) {
-            let d = Vector3::new(
-                (k % 3) as f64 - 1.0,
-                ((k / 3) % 3) as f64 - 1.0,
-                (k / 9) as f64 - 1.0,
-            )
-            .normalize();
-            let u = d
-                .cross(&if d.x.abs() < 0.9 {
-                    Vector3::x()
-                } else {
-                    Vector3::y()
-                })
-                .normalize();
-            let v = d.cross(&u);
-            for (i, j) in (0..GRID).flat_map(|i| (0..GRID).map(move |j| (i, j))) {
-                let at = |i: usize| r * (2.0 * (i as f64 + 0.5) / GRID as f64 - 1.0);
-                let origin = centre - 2.0 * r * d + u * at(i) + v * at(j);
-                if let Some(hit) = self.cast_ray(&origin, &d, 4.0 * r) {
-                    match hit.normal.dot(&d) {
-                        c if c < -0.1 => out += 1,
-                        c if c > 0.1 => inward += 1,
-                        _ => {}
-                    }
-                }
-            }
-        }
-        let hits = out + inward;
-        if hits > 0 && 10 * out >= 9 * hits {
-            Some(true)
-        } else if hits > 0 && 10 * inward >= 9 * hits {
-            Some(false)
-        } else {
-            None
-        }
-    }
-
     /// The distance from `p` to the surface when it is at most `max_distance`; `None` beyond
     /// (the tree's search stops there).
     pub fn distance_within(&self, p: &Point3<f64>, max_distance: f64) -> Option<f64> {
@@ -541,22 +491,6 @@ pub(crate) mod tests {
             vertices: v,
             triangles: t,
         }
-    }
-
-    #[test]
-    fn the_winding_is_seen_facing_out_in_or_both_ways() {
-        let out = cube();
-        assert_eq!(Surface::new(&out).unwrap().winding_faces_out(), Some(true));
-        let mut inward = out.clone();
-        inward.triangles.iter_mut().for_each(|t| t.swap(1, 2));
-        assert_eq!(Surface::new(&inward).unwrap().winding_faces_out(), Some(false));
-        // Three faces turned in: seen from the other side of each, a mix.
-        let mut mixed = out.clone();
-        mixed.triangles[..6].iter_mut().for_each(|t| t.swap(1, 2));
-        assert_eq!(Surface::new(&mixed).unwrap().winding_faces_out(), None);
-        // An open sheet is seen from both sides.
-        let sheet = TriangleMesh::grid(4, 0.1, |_, _| 0.0);
-        assert_eq!(Surface::new(&sheet).unwrap().winding_faces_out(), None);
     }
 
     #[test]

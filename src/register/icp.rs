@@ -99,11 +99,6 @@ pub struct IcpConfig {
     pub min_correspondences: usize,
     /// Use at most this many source points (evenly strided); 0 uses all.
     pub max_source_points: usize,
-    /// A pair of the symmetric half (a target point and its nearest point of the whole model)
-    /// whose normals are more than this many degrees apart is dropped, where both are oriented:
-    /// a face paired with the back of a thin wall, which held an L-bracket one plate's thickness
-    /// (30 mm) off (in (0, 180]; 180 drops none).
-    pub max_normal_angle_deg: f64,
 }
 
 impl Default for IcpConfig {
@@ -122,7 +117,6 @@ impl Default for IcpConfig {
             degenerate_ratio: 1e-2,
             min_correspondences: 30,
             max_source_points: 20_000,
-            max_normal_angle_deg: 120.0,
         }
     }
 }
@@ -167,13 +161,6 @@ impl IcpConfig {
         }
         if !(self.gate_shrink > 0.0 && self.gate_shrink <= 1.0) {
             return bad("gate_shrink", "must be in (0, 1]", self.gate_shrink);
-        }
-        if !(self.max_normal_angle_deg > 0.0 && self.max_normal_angle_deg <= 180.0) {
-            return bad(
-                "max_normal_angle_deg",
-                "must be in (0, 180]",
-                self.max_normal_angle_deg,
-            );
         }
         if !(self.degenerate_ratio >= 0.0 && self.degenerate_ratio < 1.0) {
             return bad("degenerate_ratio", "must be in [0, 1)", self.degenerate_ratio);
@@ -231,13 +218,10 @@ struct Pair {
 pub struct Surfel<'a> {
     /// Points, metres.
     pub points: &'a [Point3<f64>],
-    /// Unit normals, one per point.
+    /// Unit normals (sign irrelevant), one per point.
     pub normals: &'a [Vector3<f64>],
     /// Index over `points`.
     pub index: &'a KdIndex,
-    /// Whether the normals point out of the surface (a scan's towards its camera, a closed
-    /// model's out of the object); otherwise their signs are arbitrary.
-    pub oriented: bool,
 }
 
 /// Registers `source` onto `target` starting from `init`: point-to-plane pairs from each source
@@ -296,10 +280,7 @@ pub fn icp_point_to_plane(
         let n_forward = forward.len();
         let mut pairs = forward;
         if let Some(model) = reverse {
-            let min_cos = (model.oriented && target.oriented)
-                .then(|| cfg.max_normal_angle_deg.to_radians().cos())
-                .filter(|&c| c > -1.0);
-            pairs.extend(reverse_pairs(&tgt, &pose, model, gate, min_cos));
+            pairs.extend(reverse_pairs(&tgt, &pose, model, gate));
         }
         if pairs.len() < cfg.min_correspondences {
             return Err(Error::failed(
@@ -418,27 +399,22 @@ fn forward_pairs(src: &[Point3<f64>], pose: &Pose, target: Surfel<'_>, gate: f64
 }
 
 /// Target points (with their normals, target frame), each with its nearest point of the source's
-/// surface `model` (source frame) within `gate`, unless the two normals' cosine is below
-/// `min_cos`; the pair is expressed in the target frame along the model's normal, as if the model
-/// point were the moving point.
+/// surface `model` (source frame) within `gate`; the pair is expressed in the target frame along
+/// the model's normal, as if the model point were the moving point.
 fn reverse_pairs(
     tgt: &[(Point3<f64>, Vector3<f64>)],
     pose: &Pose,
     model: Surfel<'_>,
     gate: f64,
-    min_cos: Option<f64>,
 ) -> Vec<Pair> {
     let inv = pose.inverse();
     tgt.par_chunks(CHUNK)
         .map(|chunk| {
             let mut v = Vec::with_capacity(chunk.len());
-            for (q, qn) in chunk {
+            for (q, _) in chunk {
                 if let Some(nb) = model.index.nearest_within(&(inv * q), gate) {
                     let x = pose * model.points[nb.index];
                     let n = pose * model.normals[nb.index];
-                    if min_cos.is_some_and(|c| n.dot(qn) < c) {
-                        continue;
-                    }
                     v.push(Pair {
                         x,
                         n,
@@ -533,7 +509,6 @@ mod tests {
             points: &target,
             normals: &normals,
             index: &idx,
-            oriented: true,
         };
         let out =
             icp_point_to_plane(&source, tgt, None, &Pose::identity(), 0.05, &IcpConfig::default()).unwrap();
@@ -543,54 +518,6 @@ mod tests {
         assert!(out.fitness > 0.95);
         let (fit, rmse) = evaluate(&source, &idx, &out.t_target_source, 0.005);
         assert!(fit > 0.99 && rmse < 0.002, "{fit} {rmse}");
-    }
-
-    /// A plate 30 mm thick, its top face scanned from above (normals up, towards the camera),
-    /// the model started one thickness high: its bottom face on the scanned top face. The
-    /// symmetric half's pairs hold it there, along the bottom face's normal, against the fewer
-    /// forward pairs of its seen top face; dropped as the two normals are opposite, the plate
-    /// comes down onto the scan.
-    #[test]
-    fn a_face_is_not_paired_with_the_back_of_a_thin_wall() {
-        let mut plate = crate::surface::tests::cube();
-        for v in &mut plate.vertices {
-            *v = Point3::new(0.3 * (v.x - 0.5), 0.2 * (v.y - 0.5), 0.03 * (v.z - 0.5));
-        }
-        let (mp, mn) = plate.sample_surface(20_000, 1);
-        let m_idx = KdIndex::new(&mp).unwrap();
-        let model = Surfel {
-            points: &mp,
-            normals: &mn,
-            index: &m_idx,
-            oriented: true,
-        };
-        // The model's seen face sparser than the scan: its pairs are fewer than the scan's.
-        let (sparse, _) = plate.sample_surface(2000, 3);
-        let top: Vec<Point3<f64>> = sparse.into_iter().filter(|p| p.z > 0.0149).collect();
-        let (scan, _) = plate.sample_surface(20_000, 2);
-        let scan: Vec<Point3<f64>> = scan.into_iter().filter(|p| p.z > 0.0149).collect();
-        let s_idx = KdIndex::new(&scan).unwrap();
-        let up = vec![Vector3::z(); scan.len()];
-        let target = Surfel {
-            points: &scan,
-            normals: &up,
-            index: &s_idx,
-            oriented: true,
-        };
-        let high = Isometry3::translation(0.0, 0.0, 0.03);
-        let run = |angle: f64| {
-            let cfg = IcpConfig {
-                max_normal_angle_deg: angle,
-                ..IcpConfig::default()
-            };
-            let out = icp_point_to_plane(&top, target, Some(model), &high, 0.05, &cfg).unwrap();
-            out.t_target_source.translation.vector
-        };
-        let (dropped, kept) = (run(IcpConfig::default().max_normal_angle_deg), run(180.0));
-        assert!(
-            dropped.norm() < 5e-4 && (kept.z - 0.03).abs() < 1e-3,
-            "{dropped} {kept}"
-        );
     }
 
     #[test]
@@ -603,7 +530,6 @@ mod tests {
             points: &target,
             normals: &normals,
             index: &idx,
-            oriented: true,
         };
         let err = icp_point_to_plane(&target, tgt, Some(tgt), &far, 0.05, &IcpConfig::default()).unwrap_err();
         assert_eq!(err.exit_code(), 1);
@@ -645,13 +571,6 @@ mod tests {
             ..IcpConfig::default()
         };
         assert_bad_input(cfg.validate("register.icp"), "register.icp.max_iterations");
-        for angle in [0.0, 181.0, f64::NAN] {
-            let cfg = IcpConfig {
-                max_normal_angle_deg: angle,
-                ..IcpConfig::default()
-            };
-            assert_bad_input(cfg.validate("register.icp"), "register.icp.max_normal_angle_deg");
-        }
         IcpConfig::default().validate("register.icp").unwrap();
     }
 }

@@ -219,8 +219,6 @@ impl Decimated {
             points: &self.points,
             normals: &self.normals,
             index: &self.index,
-            // Forward pairs only, along the scan's normals: the model's signs are not used.
-            oriented: false,
         }
     }
 }

@@ -30,13 +30,8 @@ use serde::{Deserialize, Serialize};
 pub struct ReferenceModel {
     /// Surface points, metres.
     pub points: Vec<Point3<f64>>,
-    /// Unit normals of `points`: out of the object when `normals_outward`, else of arbitrary
-    /// sign (a cloud's, or a mesh's of mixed or two-sided winding).
+    /// Unit normals of `points` (sign arbitrary for a cloud).
     pub normals: Vec<Vector3<f64>>,
-    /// Whether `normals` point out of the object: a mesh's, when its winding faces the same way
-    /// wherever it is seen from outside ([`Surface::winding_faces_out`]; turned round when that
-    /// way is in).
-    pub normals_outward: bool,
     /// Index over `points`.
     pub index: KdIndex,
     /// Principal axes and spans (1–99 % quantiles) of `points`.
@@ -90,33 +85,22 @@ impl ReferenceModel {
             points: &self.points,
             normals: &self.normals,
             index: &self.index,
-            oriented: self.normals_outward,
         }
     }
 
     fn build(
         points: Vec<Point3<f64>>,
-        mut normals: Vec<Vector3<f64>>,
+        normals: Vec<Vector3<f64>>,
         mesh: Option<TriangleMesh>,
         what: &str,
     ) -> Result<Self> {
         crate::cloud::object_size(what, &points)?;
-        let winding = match &mesh {
-            Some(m) => Surface::new(m)
-                .map_err(|e| Error::input(what, e))?
-                .winding_faces_out(),
-            None => None,
-        };
-        if winding == Some(false) {
-            normals.iter_mut().for_each(|n| *n = -*n);
-        }
         let index = KdIndex::new(&points).map_err(|e| Error::input(what, e))?;
         let shape = principal_axes(&points, 0.01).ok_or_else(|| Error::input(what, "no points"))?;
         let spacing_m = crate::triangulate::median_spacing(&points, &index);
         Ok(ReferenceModel {
             points,
             normals,
-            normals_outward: winding.is_some(),
             index,
             shape,
             mesh,
@@ -332,7 +316,6 @@ pub fn register(
     cfg: &RegisterConfig,
 ) -> Result<Registration> {
     cfg.validate()?;
-    let scan_oriented = matches!(scan_normals, ScanNormals::Estimate { .. });
     // The initial pose and the model's points visible from it, alongside the scan's normals.
     let start = || -> Result<_> {
         let mut timings = crate::perception::Timings::default();
@@ -398,7 +381,6 @@ pub fn register(
             points: scan,
             normals: &scan_normals,
             index: scan_index,
-            oriented: scan_oriented,
         };
         let reverse = cfg.symmetric.then(|| model.surfel());
         let o = timings.time("icp", || {
