@@ -37,6 +37,9 @@ pub struct AccuracyConfig {
     /// The lines cover the object's extent in the image plane shrunk by this fraction at each
     /// end (0: edge to edge).
     pub inset: f64,
+    /// Fail when more than this fraction of the aligned reference's points the camera would see
+    /// face-on lie where it saw past them ([`free_space`]; in [0, 1], 1 never fails).
+    pub max_free_space: f64,
 }
 
 impl Default for AccuracyConfig {
@@ -45,6 +48,7 @@ impl Default for AccuracyConfig {
             lines: 21,
             samples_per_line: 101,
             inset: 0.02,
+            max_free_space: 0.01,
         }
     }
 }
@@ -73,6 +77,14 @@ impl AccuracyConfig {
             (0.0..0.5).contains(&self.inset),
             "accuracy.inset",
             format!("must be in [0, 0.5), got {}", crate::config::shown(self.inset)),
+        )?;
+        crate::config::require(
+            (0.0..=1.0).contains(&self.max_free_space),
+            "accuracy.max_free_space",
+            format!(
+                "must be in [0, 1], got {}",
+                crate::config::shown(self.max_free_space)
+            ),
         )
     }
 }
@@ -176,6 +188,109 @@ pub struct Deviation {
     pub first_hits: usize,
     /// `samples / first_hits` (0 when nothing hit the first surface).
     pub coverage: f64,
+}
+
+/// The smallest cosine between a model point's normal and its line of sight for [`free_space`]
+/// to judge it.
+const MIN_FACING: f64 = 0.5;
+
+/// How much of the aligned model lies where the camera saw past it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FreeSpace {
+    /// The model's seen points that lie in front of everything the camera saw around them.
+    pub violating: usize,
+    /// The model's seen points with scan points around their line of sight.
+    pub judged: usize,
+    /// `violating / judged` (0 when nothing was judged).
+    pub fraction: f64,
+    /// How far in front of the nearest scan point around it the worst one lies, metres.
+    pub max_m: f64,
+}
+
+/// Free-space consistency: a model point seen from `camera` at range `d` lies in free space when
+/// every scan point around its line of sight (its bin and the 8 around it, of a grid of the
+/// image plane whose cells are twice the scan's angular spacing `spacing_rad`) is farther than
+/// `d + tolerance_m`: the camera saw through where the model claims to be (a model too large,
+/// slid past the scanned object's end, or turned end for end), which no distance from the scan
+/// to the model shows. Lines of sight with no scan point around them (stereo holes, the scan's
+/// edge) are not judged, nor points whose (unit) normal in `model_normals` is more than 60° from
+/// the line of sight: at a silhouette a cell spans the object's edge and what lies behind it, and
+/// a stereo camera's edge pixels take the far depth (on correct alignments of synthetic bottles
+/// every point in free space faced the camera within a cosine of 0.4).
+pub fn free_space(
+    scan: &[Point3<f64>],
+    model_seen: &[Point3<f64>],
+    model_normals: &[Vector3<f64>],
+    camera: &Point3<f64>,
+    spacing_rad: f64,
+    tolerance_m: f64,
+) -> FreeSpace {
+    use std::collections::HashMap;
+    let mut nearest: HashMap<(i64, i64), f64> = HashMap::new();
+    let step = 2.0 * spacing_rad;
+    let Some(axis) = model_seen
+        .iter()
+        .map(|p| p - camera)
+        .sum::<Vector3<f64>>()
+        .try_normalize(1e-12)
+    else {
+        return FreeSpace {
+            violating: 0,
+            judged: 0,
+            fraction: 0.0,
+            max_m: 0.0,
+        };
+    };
+    let e1 = axis
+        .cross(&if axis.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        })
+        .normalize();
+    let e2 = axis.cross(&e1);
+    // The image-plane cell and the range of a point, for points in front of the camera.
+    let cell = |p: &Point3<f64>| -> Option<((i64, i64), f64)> {
+        let v = p - camera;
+        let z = v.dot(&axis);
+        (z > 0.0).then(|| {
+            let key = (
+                (v.dot(&e1) / z / step).floor() as i64,
+                (v.dot(&e2) / z / step).floor() as i64,
+            );
+            (key, v.norm())
+        })
+    };
+    for (key, d) in scan.iter().filter_map(cell) {
+        let e = nearest.entry(key).or_insert(f64::INFINITY);
+        *e = e.min(d);
+    }
+    let (mut violating, mut judged, mut max_m) = (0usize, 0usize, 0.0f64);
+    for (p, n) in model_seen.iter().zip(model_normals) {
+        let Some((key, d)) = cell(p) else { continue };
+        if !nearest.contains_key(&key) || n.dot(&(p - camera)).abs() < MIN_FACING * d {
+            continue;
+        }
+        let around = (-1..=1)
+            .flat_map(|i| (-1..=1).map(move |j| (key.0 + i, key.1 + j)))
+            .filter_map(|k| nearest.get(&k))
+            .fold(f64::INFINITY, |a, &b| a.min(b));
+        judged += 1;
+        if around > d + tolerance_m {
+            violating += 1;
+            max_m = max_m.max(around - d);
+        }
+    }
+    FreeSpace {
+        violating,
+        judged,
+        fraction: if judged > 0 {
+            violating as f64 / judged as f64
+        } else {
+            0.0
+        },
+        max_m,
+    }
 }
 
 /// Compares hit distances `first` and `second` (same rays), over the rays where `mask` (if given)
@@ -322,6 +437,45 @@ pub fn truth_errors(
 
 #[cfg(test)]
 mod tests {
+    /// A 0.2 m square plate face-on 1 m from the camera before a seabed 1.5 m away, both
+    /// scanned every 2 mrad with nothing behind the plate: the plate's model where it is, moved
+    /// back, slid by a quarter of its width, and brought 30 mm nearer.
+    #[test]
+    fn free_space_is_where_the_camera_saw_past_the_model() {
+        let grid = |half: f64, z: f64, keep: &dyn Fn(f64, f64) -> bool| -> Vec<Point3<f64>> {
+            let n = (half / 0.002).round() as i32;
+            (-n..=n)
+                .flat_map(|i| (-n..=n).map(move |j| (i as f64 * 0.002 * z, j as f64 * 0.002 * z)))
+                .filter(|&(x, y)| keep(x / z, y / z))
+                .map(|(x, y)| Point3::new(x, y, z))
+                .collect()
+        };
+        let on_plate = |a: f64, b: f64| a.abs() <= 0.1 && b.abs() <= 0.1;
+        let plate = grid(0.1, 1.0, &|_, _| true);
+        let mut scan = plate.clone();
+        scan.extend(grid(0.5, 1.5, &|a, b| !on_plate(a, b)));
+        let facing = vec![-Vector3::z(); plate.len()];
+        let camera = Point3::origin();
+        let at = |dx: f64, dz: f64, normals: &[Vector3<f64>]| {
+            let model: Vec<_> = plate.iter().map(|p| p + Vector3::new(dx, 0.0, dz)).collect();
+            free_space(&scan, &model, normals, &camera, 0.002, 0.01)
+        };
+        assert_eq!(at(0.0, 0.0, &facing).violating, 0);
+        assert_eq!(at(0.0, 0.03, &facing).violating, 0);
+        // Slid by 50 mm: the quarter beyond the plate's edge, less the cell next to it.
+        let slid = at(0.05, 0.0, &facing);
+        assert!((0.2..=0.25).contains(&slid.fraction), "{slid:?}");
+        assert!((slid.max_m - 0.5).abs() < 0.01, "{slid:?}");
+        let near = at(0.0, -0.03, &facing);
+        assert!(
+            near.fraction > 0.99 && (near.max_m - 0.03).abs() < 1e-9,
+            "{near:?}"
+        );
+        // Seen edge-on, no point is judged.
+        let grazing = vec![Vector3::new(0.9, 0.0, -0.3).normalize(); plate.len()];
+        assert_eq!(at(0.05, 0.0, &grazing).judged, 0);
+    }
+
     use super::*;
     use crate::mesh::TriangleMesh;
     use nalgebra::{Isometry3, Translation3};

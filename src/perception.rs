@@ -13,7 +13,9 @@
 //! stereo scan) except the reference model, which is in its own frame; `t_scan_reference` maps the
 //! model into the scan. Units: metres, seconds.
 
-use crate::accuracy::{AccuracyConfig, Deviation, TruthErrors, trajectory_accuracy, truth_errors};
+use crate::accuracy::{
+    AccuracyConfig, Deviation, FreeSpace, TruthErrors, free_space, trajectory_accuracy, truth_errors,
+};
 use crate::cloud::PointCloud;
 use crate::cloud::filter::{
     OutlierConfig, RangeCropConfig, VoxelConfig, crop_range, remove_statistical_outliers, voxel_downsample,
@@ -421,6 +423,8 @@ pub struct CheckResult {
     pub reference_surface: TriangleMesh,
     /// The seed's \[59\] estimate: test trajectories on both surfaces.
     pub accuracy: Deviation,
+    /// How much of the aligned model lies where the camera saw past it.
+    pub free_space: FreeSpace,
     /// Errors against the ground truth, when given.
     pub truth: Option<TruthErrors>,
     /// Wall time per stage (segmentation's stages included).
@@ -540,6 +544,43 @@ pub fn check(
             triangulate_view(&visible, &[], &camera, &cfg.surface)
         }
     })?;
+    let free_space = timings.time("free_space", || {
+        let scanned = segmentation.as_ref().map_or(&object.points, |s| &s.cloud.points);
+        let seen: Vec<Point3<f64>> = registration.visible.iter().map(|p| pose * p).collect();
+        let normals: Vec<Vector3<f64>> = registration
+            .visible
+            .iter()
+            .map(|p| {
+                model
+                    .index
+                    .nearest(p)
+                    .map_or(Vector3::zeros(), |nb| pose * model.normals[nb.index])
+            })
+            .collect();
+        let mut ranges: Vec<f64> = object.points.iter().map(|p| (p - camera).norm()).collect();
+        let range = crate::cloud::pca::median(&mut ranges).unwrap_or(1.0);
+        let spacing_rad = crate::triangulate::median_spacing(&object.points, &index) / range;
+        free_space(
+            scanned,
+            &seen,
+            &normals,
+            &camera,
+            spacing_rad,
+            10.0 * registration.scan_noise_m,
+        )
+    });
+    if free_space.fraction > cfg.accuracy.max_free_space {
+        return Err(Error::failed(
+            "accuracy",
+            format!(
+                "{:.1} % of the aligned reference's {} points seen face-on lie in front of all the camera saw around them, by up to {:.0} mm (accuracy.max_free_space {}): the camera saw past where the reference is put: a wrong alignment (a face on the back of a wall, slid along the object, turned end for end), a reference larger than the object, or [view] camera_m not where the scan was taken from",
+                100.0 * free_space.fraction,
+                free_space.judged,
+                1e3 * free_space.max_m,
+                crate::config::shown(cfg.accuracy.max_free_space)
+            ),
+        ));
+    }
     let accuracy = timings.time("accuracy", || -> Result<Deviation> {
         let scan_s = Surface::new(&scan_surface)?;
         let ref_s = Surface::new(&reference_surface)?;
@@ -564,6 +605,7 @@ pub fn check(
         scan_surface,
         reference_surface,
         accuracy,
+        free_space,
         truth,
         timings,
     })
@@ -665,6 +707,8 @@ mod tests {
                 "surface.smoothing_neighbours",
             ),
             ("[accuracy]\nlines = 18446744073709551615", "accuracy.lines"),
+            ("[accuracy]\nmax_free_space = 1.5", "accuracy.max_free_space"),
+            ("[accuracy]\nmax_free_space = nan", "accuracy.max_free_space"),
             (
                 "[accuracy]\nsamples_per_line = 1000000000",
                 "accuracy.samples_per_line",

@@ -54,14 +54,7 @@ fn write_ply_points(path: &Path, pts: &[[f64; 3]]) {
 #[test]
 fn check_refuses_a_reference_that_does_not_fit() {
     let dir = tempfile::tempdir().unwrap();
-    let mut mesh = uvms::io::ply::read_mesh(&data("models/bottle.ply")).unwrap();
-    for v in &mut mesh.vertices {
-        v.coords *= 0.9;
-    }
-    let shrunk = dir.path().join("shrunk.ply");
-    let mut f = std::fs::File::create(&shrunk).unwrap();
-    uvms::io::ply::write_mesh(&mut f, &mesh).unwrap();
-    drop(f);
+    let shrunk = bottle_scaled(dir.path(), [0.9; 3]);
     let out = dir.path().join("check");
     let o = run(&[
         "check",
@@ -78,6 +71,56 @@ fn check_refuses_a_reference_that_does_not_fit() {
         "{err}"
     );
     assert!(!out.exists());
+}
+
+/// The bottle's model with its coordinates scaled by `s`, written into `dir`.
+fn bottle_scaled(dir: &Path, s: [f64; 3]) -> PathBuf {
+    let mut mesh = uvms::io::ply::read_mesh(&data("models/bottle.ply")).unwrap();
+    for v in &mut mesh.vertices {
+        v.coords.component_mul_assign(&nalgebra::Vector3::from(s));
+    }
+    let path = dir.join("scaled.ply");
+    let mut f = std::fs::File::create(&path).unwrap();
+    uvms::io::ply::write_mesh(&mut f, &mesh).unwrap();
+    path
+}
+
+/// A reference longer than the object, the bottle's model stretched by 20 % along its axis: its
+/// body fits the scanned body as well as the right model's (ICP's residuals at the scan's noise),
+/// but its far end juts past the scanned bottle's, in front of the seabed the camera saw there.
+/// Refused, exit 1, nothing written; with `max_free_space = 1` accepted, 9 % of its points seen
+/// face-on in free space, against none for the model as it is.
+#[test]
+fn check_refuses_a_reference_where_the_camera_saw_past_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let long = bottle_scaled(dir.path(), [1.2, 1.0, 1.0]);
+    let check = |reference: &Path, config: &[&str], out: &str| {
+        let out = dir.path().join(out);
+        let mut args = vec!["--json", "check", "--reference", reference.to_str().unwrap()];
+        args.extend_from_slice(config);
+        let scan = data("scans/bottle/scan.ply");
+        args.extend([scan.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        (run(&args), out)
+    };
+    let (o, out) = check(&long, &[], "long");
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.starts_with("error: accuracy: ") && err.contains("accuracy.max_free_space 0.01"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    let config = dir.path().join("lenient.toml");
+    std::fs::write(&config, "[accuracy]\nmax_free_space = 1.0\n").unwrap();
+    let fraction = |o: &Output| {
+        assert!(o.status.success(), "{}", stderr(o));
+        let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        s["free_space_fraction"].as_f64().unwrap()
+    };
+    let (o, _) = check(&long, &["--config", config.to_str().unwrap()], "lenient");
+    assert!(fraction(&o) > 0.05, "{}", fraction(&o));
+    let (o, _) = check(&data("models/bottle.ply"), &[], "right");
+    assert!(fraction(&o) < 0.002, "{}", fraction(&o));
 }
 
 #[test]
