@@ -241,14 +241,7 @@ pub fn free_space(
             max_m: 0.0,
         };
     };
-    let e1 = axis
-        .cross(&if axis.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        })
-        .normalize();
-    let e2 = axis.cross(&e1);
+    let (e1, e2) = crate::spatial::perpendicular_basis(&axis);
     // The image-plane cell and the range of a point, for points in front of the camera.
     let cell = |p: &Point3<f64>| -> Option<((i64, i64), f64)> {
         let v = p - camera;

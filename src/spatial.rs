@@ -6,7 +6,7 @@
 
 use crate::error::{Error, Result};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
-use nalgebra::Point3;
+use nalgebra::{Point3, Vector3};
 use std::num::NonZero;
 
 /// A k-d tree over points; query results are indices into the building slice.
@@ -136,6 +136,20 @@ impl KdIndex {
                 })
             });
     }
+}
+
+/// Two unit vectors that make a right-handed orthonormal frame `(e1, e2, n)` with the unit
+/// vector `n`: `e1` perpendicular to `n` and to the axis (x, or y when `n` lies near x) least
+/// along it, `e2 = n × e1`.
+pub fn perpendicular_basis(n: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let e1 = n
+        .cross(&if n.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        })
+        .normalize();
+    (e1, n.cross(&e1))
 }
 
 #[cfg(test)]

@@ -142,14 +142,7 @@ pub fn triangulate_view(
     let d = (centroid - camera.coords)
         .try_normalize(1e-12)
         .ok_or_else(|| Error::failed("surface", "the points' centroid is at the camera"))?;
-    let e1 = d
-        .cross(&if d.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        })
-        .normalize();
-    let e2 = d.cross(&e1);
+    let (e1, e2) = crate::spatial::perpendicular_basis(&d);
     let depth = |p: &Point3<f64>| (p - camera).dot(&d);
     let front: Vec<Point3<f64>> = points.iter().filter(|p| depth(p) > 1e-9).copied().collect();
     if front.len() < 3 {

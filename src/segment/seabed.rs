@@ -377,14 +377,7 @@ pub fn object_side(points: &[Point3<f64>], fit: &SeabedFit, cfg: &SeabedConfig) 
         f64::INFINITY
     };
     let n = fit.plane.normal;
-    let e1 = n
-        .cross(&if n.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        })
-        .normalize();
-    let e2 = n.cross(&e1);
+    let (e1, e2) = crate::spatial::perpendicular_basis(&n);
     let foot = |p: &Point3<f64>| [p.coords.dot(&e1), p.coords.dot(&e2)];
     let hull = if cfg.object_on_footprint {
         convex_hull_2d(fit.inliers.iter().map(|&i| foot(&points[i])).collect())
