@@ -430,6 +430,10 @@ pub fn truth_errors(
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+    use crate::mesh::TriangleMesh;
+    use nalgebra::{Isometry3, Translation3};
+
     /// A 0.2 m square plate face-on 1 m from the camera before a seabed 1.5 m away, both
     /// scanned every 2 mrad with nothing behind the plate: the plate's model where it is, moved
     /// back, slid by a quarter of its width, and brought 30 mm nearer.
@@ -468,10 +472,6 @@ mod tests {
         let grazing = vec![Vector3::new(0.9, 0.0, -0.3).normalize(); plate.len()];
         assert_eq!(at(0.05, 0.0, &grazing).judged, 0);
     }
-
-    use super::*;
-    use crate::mesh::TriangleMesh;
-    use nalgebra::{Isometry3, Translation3};
 
     /// A square plate of side 0.4 m, 1 m in front of the camera, facing it.
     fn plate(z: f64) -> TriangleMesh {

@@ -159,8 +159,8 @@ pub struct RegisterConfig {
     /// Distance for the reported fitness and inlier RMSE, metres; 0 uses ICP's last gate.
     pub evaluation_distance_m: f64,
     /// Fail when the scan fitness (the fraction of the scanned object within the evaluation
-    /// distance of the aligned model's surface, or of its points for a point cloud) is below
-    /// this (a fraction in [0, 1]).
+    /// distance of the aligned model's surface, [`Registration::scan_fitness`]) is below this
+    /// (a fraction in [0, 1]).
     pub min_fitness: f64,
     /// Fail when ICP's last gate is wider than `icp.min_gate_m` and than `icp.gate_sigmas` ×
     /// this × the scan's own noise ([`scan_noise`]): the residuals then spread this many times
@@ -253,8 +253,8 @@ pub struct Registration {
     /// (Open3D's `fitness`, the reference being the source).
     pub fitness: f64,
     /// Fraction of the scanned object's points within the evaluation distance of the aligned
-    /// model's surface (of its points, for a point cloud): how much of the scan the model
-    /// explains.
+    /// model's surface (for a point cloud, of the plane of its nearest point): how much of the
+    /// scan the model explains.
     pub scan_fitness: f64,
     /// RMS distance of those pairs, metres.
     pub inlier_rmse_m: f64,
@@ -278,11 +278,10 @@ pub struct Registration {
 /// `t_scan_reference`: a mesh's own; for a point cloud, the plane of the nearest point (along its
 /// normal), that point no farther than `dist` and three times the cloud's spacing (its points'
 /// median distance to their nearest; randomly strewn, one point in 500 is farther from all of
-/// them). Counted point to point
-/// against a mesh's samples or a cloud's points instead, a point between them reads as far as
-/// half their spacing, and a correct alignment's fraction depends on their density (a 1 m box
-/// read 0.35 at the default `mesh_samples` and 0.98 at ten times as many; against a cloud of
-/// 15,000 of its points, 0.27, below `min_fitness`).
+/// them). Counted point to point against a mesh's samples or a cloud's points instead, a point
+/// between them reads as far as half their spacing, and a correct alignment's fraction depends
+/// on their density (a 1 m box read 0.35 at the default `mesh_samples` and 0.98 at ten times as
+/// many; against a cloud of 15,000 of its points, 0.27, below `min_fitness`).
 fn scan_fitness(
     model: &ReferenceModel,
     scan: &[Point3<f64>],
