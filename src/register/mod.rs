@@ -433,7 +433,11 @@ pub fn register(
     if scan_fitness < cfg.min_fitness {
         return Err(Error::failed(
             "icp",
-            format!("scan fitness below min_fitness {}: {reached}", cfg.min_fitness),
+            format!(
+                "scan fitness {} below min_fitness {}: {reached}",
+                crate::config::shown_significant(scan_fitness, 6),
+                crate::config::shown(cfg.min_fitness)
+            ),
         ));
     }
     // ICP's gate follows the residuals' spread down to the noise: a gate left wide is an
