@@ -195,16 +195,25 @@ pub struct Deviation {
 const MIN_FACING: f64 = 0.5;
 
 /// How much of the aligned model lies where the camera saw past it.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FreeSpace {
     /// The model's seen points that lie in front of everything the camera saw around them.
     pub violating: usize,
     /// The model's seen points with scan points around their line of sight.
     pub judged: usize,
-    /// `violating / judged` (0 when nothing was judged).
-    pub fraction: f64,
     /// How far in front of the nearest scan point around it the worst one lies, metres.
     pub max_m: f64,
+}
+
+impl FreeSpace {
+    /// `violating / judged` (0 when nothing was judged).
+    pub fn fraction(&self) -> f64 {
+        if self.judged > 0 {
+            self.violating as f64 / self.judged as f64
+        } else {
+            0.0
+        }
+    }
 }
 
 /// Free-space consistency: a model point seen from `camera` at range `d` lies in free space when
@@ -234,12 +243,7 @@ pub fn free_space(
         .sum::<Vector3<f64>>()
         .try_normalize(1e-12)
     else {
-        return FreeSpace {
-            violating: 0,
-            judged: 0,
-            fraction: 0.0,
-            max_m: 0.0,
-        };
+        return FreeSpace::default();
     };
     let (e1, e2) = crate::spatial::perpendicular_basis(&axis);
     // The image-plane cell and the range of a point, for points in front of the camera.
@@ -277,11 +281,6 @@ pub fn free_space(
     FreeSpace {
         violating,
         judged,
-        fraction: if judged > 0 {
-            violating as f64 / judged as f64
-        } else {
-            0.0
-        },
         max_m,
     }
 }
@@ -461,11 +460,11 @@ mod tests {
         assert_eq!(at(0.0, 0.03, &facing).violating, 0);
         // Slid by 50 mm: the quarter beyond the plate's edge, less the cell next to it.
         let slid = at(0.05, 0.0, &facing);
-        assert!((0.2..=0.25).contains(&slid.fraction), "{slid:?}");
+        assert!((0.2..=0.25).contains(&slid.fraction()), "{slid:?}");
         assert!((slid.max_m - 0.5).abs() < 0.01, "{slid:?}");
         let near = at(0.0, -0.03, &facing);
         assert!(
-            near.fraction > 0.99 && (near.max_m - 0.03).abs() < 1e-9,
+            near.fraction() > 0.99 && (near.max_m - 0.03).abs() < 1e-9,
             "{near:?}"
         );
         // Seen edge-on, no point is judged.

@@ -559,7 +559,7 @@ pub fn check(
             .collect();
         let mut ranges: Vec<f64> = object.points.iter().map(|p| (p - camera).norm()).collect();
         let range = crate::cloud::pca::median(&mut ranges).unwrap_or(1.0);
-        let spacing_rad = crate::triangulate::median_spacing(&object.points, &index) / range;
+        let spacing_rad = median_spacing(&object.points, &index) / range;
         free_space(
             scanned,
             &seen,
@@ -569,12 +569,12 @@ pub fn check(
             10.0 * registration.scan_noise_m,
         )
     });
-    if free_space.fraction > cfg.accuracy.max_free_space {
+    if free_space.fraction() > cfg.accuracy.max_free_space {
         return Err(Error::failed(
             "accuracy",
             format!(
                 "{:.1} % of the aligned reference's {} points seen face-on lie in front of all the camera saw around them, by up to {:.0} mm (accuracy.max_free_space {}): the camera saw past where the reference is put: a wrong alignment (a face on the back of a wall, slid along the object, turned end for end), a reference larger than the object, or [view] camera_m not where the scan was taken from",
-                100.0 * free_space.fraction,
+                100.0 * free_space.fraction(),
                 free_space.judged,
                 1e3 * free_space.max_m,
                 crate::config::shown(cfg.accuracy.max_free_space)

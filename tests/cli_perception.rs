@@ -55,15 +55,7 @@ fn write_ply_points(path: &Path, pts: &[[f64; 3]]) {
 fn check_refuses_a_reference_that_does_not_fit() {
     let dir = tempfile::tempdir().unwrap();
     let shrunk = bottle_scaled(dir.path(), [0.9; 3]);
-    let out = dir.path().join("check");
-    let o = run(&[
-        "check",
-        data("scans/bottle/scan.ply").to_str().unwrap(),
-        "--reference",
-        shrunk.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (o, out) = check_bottle_scan(dir.path(), &shrunk, &[], "check");
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let err = stderr(&o);
     assert!(
@@ -71,6 +63,17 @@ fn check_refuses_a_reference_that_does_not_fit() {
         "{err}"
     );
     assert!(!out.exists());
+}
+
+/// `uvms --json check` of the committed bottle scan against `reference`, with `options`, into
+/// `dir/out`: the output and that folder.
+fn check_bottle_scan(dir: &Path, reference: &Path, options: &[&str], out: &str) -> (Output, PathBuf) {
+    let out = dir.join(out);
+    let scan = data("scans/bottle/scan.ply");
+    let mut args = vec!["--json", "check", scan.to_str().unwrap(), "--reference"];
+    args.extend([reference.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    args.extend_from_slice(options);
+    (run(&args), out)
 }
 
 /// The bottle's model with its coordinates scaled by `s`, written into `dir`.
@@ -94,13 +97,8 @@ fn bottle_scaled(dir: &Path, s: [f64; 3]) -> PathBuf {
 fn check_refuses_a_reference_where_the_camera_saw_past_it() {
     let dir = tempfile::tempdir().unwrap();
     let long = bottle_scaled(dir.path(), [1.2, 1.0, 1.0]);
-    let check = |reference: &Path, config: &[&str], out: &str| {
-        let out = dir.path().join(out);
-        let mut args = vec!["--json", "check", "--reference", reference.to_str().unwrap()];
-        args.extend_from_slice(config);
-        let scan = data("scans/bottle/scan.ply");
-        args.extend([scan.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-        (run(&args), out)
+    let check = |reference: &Path, options: &[&str], out: &str| {
+        check_bottle_scan(dir.path(), reference, options, out)
     };
     let (o, out) = check(&long, &[], "long");
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));

@@ -89,7 +89,7 @@ pub fn check_summary(r: &CheckResult) -> serde_json::Value {
         "accuracy_mean_signed_m": r.accuracy.mean_signed_m,
         "accuracy_samples": r.accuracy.samples,
         "coverage": r.accuracy.coverage,
-        "free_space_fraction": r.free_space.fraction,
+        "free_space_fraction": r.free_space.fraction(),
         "free_space_max_m": r.free_space.max_m,
         "iterations": reg.iterations,
         "converged": reg.converged,
@@ -183,7 +183,7 @@ pub fn check_text(r: &CheckResult) -> String {
         "free space",
         format!(
             "{:.1} % of the reference's {} points seen face-on lie in front of all the camera saw around them{}",
-            100.0 * r.free_space.fraction,
+            100.0 * r.free_space.fraction(),
             r.free_space.judged,
             if r.free_space.violating > 0 {
                 format!(" (by up to {:.1} mm)", 1e3 * r.free_space.max_m)
