@@ -512,12 +512,17 @@ pub fn check(
         .ok_or_else(|| Error::failed("register", "the object has no points"))?;
     // The object's normals are estimated inside the registration, alongside its global initial
     // guess (its timings hold both).
-    let normals = ScanNormals::Estimate {
-        config: &cfg.normals,
-        camera,
-    };
+    let normals = ScanNormals::Estimate(&cfg.normals);
     let registration = timings.time("register", || {
-        register(model, &object.points, normals, &index, &opts.init, &cfg.register)
+        register(
+            model,
+            &object.points,
+            normals,
+            &index,
+            &camera,
+            &opts.init,
+            &cfg.register,
+        )
     })?;
     object.normals = Some(registration.scan_normals.clone());
     let pose = registration.t_scan_reference;

@@ -103,15 +103,12 @@ pub fn register_object(
     cfg: &PerceptionConfig,
 ) -> Registration {
     let index = KdIndex::new(object).unwrap();
-    let normals = ScanNormals::Estimate {
-        config: &cfg.normals,
-        camera: cfg.view.camera(),
-    };
     register(
         &input.model,
         object,
-        normals,
+        ScanNormals::Estimate(&cfg.normals),
         &index,
+        &cfg.view.camera(),
         &InitMode::Auto,
         &cfg.register,
     )

@@ -4,7 +4,7 @@
 //!
 //! Convention (as small_gicp's `T_target_source`): the reference model is the ICP source, the
 //! scanned object the target, and the result `t_scan_reference` maps reference coordinates into
-//! the scan frame `S` (camera at the origin). Units: metres, degrees in reports.
+//! the scan frame `S` (the camera where `[view] camera_m` puts it, the origin by default). Units: metres, degrees in reports.
 
 pub mod hidden_points;
 pub mod hull;
@@ -114,15 +114,10 @@ impl ReferenceModel {
 pub enum ScanNormals<'a> {
     /// Given, one per scan point.
     Given(&'a [Vector3<f64>]),
-    /// Estimated ([`estimate_normals`], oriented towards `camera`) while the global initial guess
-    /// and the first hidden-point removal run: neither needs them, and the hidden-point removal is
-    /// serial, so the two cores share the work.
-    Estimate {
-        /// How.
-        config: &'a NormalConfig,
-        /// The camera's centre (scan frame).
-        camera: Point3<f64>,
-    },
+    /// Estimated with this configuration ([`estimate_normals`], oriented towards the camera)
+    /// while the global initial guess and the first hidden-point removal run: neither needs them,
+    /// and the hidden-point removal is serial, so the two cores share the work.
+    Estimate(&'a NormalConfig),
 }
 
 /// Where ICP starts.
@@ -310,7 +305,8 @@ fn scan_fitness(
 }
 
 /// Registers `model` onto the scanned object `scan` (scan frame; its normals unit, oriented or
-/// not, given or estimated here; `scan_index` over `scan`).
+/// not, given or estimated here; `scan_index` over `scan`), seen from `camera` (scan frame): the
+/// hidden-point removal keeps the model's points visible from there.
 ///
 /// # Errors
 /// [`Error::Input`] for a bad configuration; [`Error::Failed`] (stage `icp`) when ICP finds too
@@ -321,6 +317,7 @@ pub fn register(
     scan: &[Point3<f64>],
     scan_normals: ScanNormals<'_>,
     scan_index: &KdIndex,
+    camera: &Point3<f64>,
     init: &InitMode,
     cfg: &RegisterConfig,
 ) -> Result<Registration> {
@@ -337,7 +334,7 @@ pub fn register(
             }
         };
         let visible = timings.time("hidden_points", || {
-            visible_source(model, &initial, &cfg.hidden_points)
+            visible_source(model, &initial, camera, &cfg.hidden_points)
         });
         Ok((initial, init_outcome, visible, timings))
     };
@@ -345,7 +342,7 @@ pub fn register(
         let mut timings = crate::perception::Timings::default();
         let n = timings.time("normals", || match scan_normals {
             ScanNormals::Given(n) => Ok(n.to_vec()),
-            ScanNormals::Estimate { config, camera } => estimate_normals(scan, config, &camera),
+            ScanNormals::Estimate(config) => estimate_normals(scan, config, camera),
         });
         (n, timings)
     };
@@ -376,14 +373,14 @@ pub fn register(
     let mut last = None;
     let mut culled_from: Option<Pose> = None;
     for _ in 0..cfg.visibility_rounds {
-        if culled_from.is_some_and(|p| !silhouette_moved(model, &p, &pose)) {
+        if culled_from.is_some_and(|p| !silhouette_moved(model, camera, &p, &pose)) {
             break;
         }
         culled_from = Some(pose);
         source = match first_visible.take() {
             Some(v) => v,
             None => timings.time("hidden_points", || {
-                visible_source(model, &pose, &cfg.hidden_points)
+                visible_source(model, &pose, camera, &cfg.hidden_points)
             }),
         };
         let target = Surfel {
@@ -403,9 +400,9 @@ pub fn register(
     let Some(icp) = last else {
         return Err(Error::failed("icp", "no round ran"));
     };
-    if culled_from.is_some_and(|p| silhouette_moved(model, &p, &pose)) {
+    if culled_from.is_some_and(|p| silhouette_moved(model, camera, &p, &pose)) {
         source = timings.time("hidden_points", || {
-            visible_source(model, &pose, &cfg.hidden_points)
+            visible_source(model, &pose, camera, &cfg.hidden_points)
         });
     }
     let dist = if cfg.evaluation_distance_m > 0.0 {
@@ -503,23 +500,27 @@ pub fn scan_noise(scan: &[Point3<f64>], index: &KdIndex) -> f64 {
     median(&mut rms).unwrap_or(0.0)
 }
 
-/// Whether moving the model from `from` to `to` moves the camera (the scan frame's origin), seen
-/// from the model, enough to shift its silhouette by half the model's point spacing: the
-/// silhouette of an object of the model's size moves by about its size times the change of the
-/// viewing direction.
-fn silhouette_moved(model: &ReferenceModel, from: &Pose, to: &Pose) -> bool {
-    let (a, b) = (from.inverse() * Point3::origin(), to.inverse() * Point3::origin());
+/// Whether moving the model from `from` to `to` moves the camera (scan frame), seen from the
+/// model, enough to shift its silhouette by half the model's point spacing: the silhouette of an
+/// object of the model's size moves by about its size times the change of the viewing direction.
+fn silhouette_moved(model: &ReferenceModel, camera: &Point3<f64>, from: &Pose, to: &Pose) -> bool {
+    let (a, b) = (from.inverse() * camera, to.inverse() * camera);
     let range = (a - model.shape.centroid).norm().max(1e-9);
     model.shape.spans.max() * (b - a).norm() / range > 0.5 * model.spacing_m
 }
 
-/// The model's points visible from the camera (the scan frame's origin) when the model sits at
-/// `pose`, in the model frame.
-pub fn visible_source(model: &ReferenceModel, pose: &Pose, cfg: &HiddenPointConfig) -> Vec<Point3<f64>> {
+/// The model's points visible from `camera` (scan frame) when the model sits at `pose`, in the
+/// model frame.
+pub fn visible_source(
+    model: &ReferenceModel,
+    pose: &Pose,
+    camera: &Point3<f64>,
+    cfg: &HiddenPointConfig,
+) -> Vec<Point3<f64>> {
     if !cfg.enabled {
         return model.points.clone();
     }
-    let camera = pose.inverse() * Point3::origin();
+    let camera = pose.inverse() * camera;
     visible_points(&model.points, &camera, cfg.radius_factor)
         .into_iter()
         .map(|i| model.points[i])
@@ -638,6 +639,7 @@ pub(crate) mod tests {
                 &scan,
                 ScanNormals::Given(&normals),
                 &idx,
+                &Point3::origin(),
                 &InitMode::Auto,
                 &RegisterConfig::default(),
             )
@@ -654,15 +656,13 @@ pub(crate) mod tests {
             assert!(r.converged && r.fitness > 0.7, "{r:?}");
             if k == 0 {
                 // Estimated alongside the initial guess, the same normals and the same result.
-                let estimated = ScanNormals::Estimate {
-                    config: &NormalConfig::default(),
-                    camera: Point3::origin(),
-                };
+                let estimated = ScanNormals::Estimate(&NormalConfig::default());
                 let e = register(
                     &model,
                     &scan,
                     estimated,
                     &idx,
+                    &Point3::origin(),
                     &InitMode::Auto,
                     &RegisterConfig::default(),
                 )
@@ -671,6 +671,37 @@ pub(crate) mod tests {
                 assert_eq!(e.t_scan_reference, r.t_scan_reference);
             }
         }
+    }
+
+    /// The hidden-point removal sees the model from `camera`, not from the scan frame's origin:
+    /// a bottle 1 m in front of the origin, seen from a camera 1 m beside it (at right angles to
+    /// the origin's view), keeps the side that faces that camera (its outward normals towards
+    /// it), and of the side that faces the origin only the quarter turn the two share.
+    #[test]
+    fn the_model_is_culled_from_the_camera_not_the_origin() {
+        let (points, normals) = bottle(6000, 5);
+        let model = ReferenceModel::build(points, normals, None, "model").unwrap();
+        let pose = Isometry3::new(Vector3::new(0.0, 0.0, 1.0), Vector3::zeros());
+        let facing = |visible: &[Point3<f64>], camera: &Point3<f64>| {
+            let toward = visible
+                .iter()
+                .filter(|&p| {
+                    let nb = model.index.nearest(p).unwrap();
+                    model.normals[nb.index].dot(&(pose.inverse() * camera - p)) > 0.0
+                })
+                .count();
+            toward as f64 / visible.len() as f64
+        };
+        let beside = Point3::new(0.0, 1.0, 1.0);
+        let cfg = HiddenPointConfig::default();
+        let from_beside = visible_source(&model, &pose, &beside, &cfg);
+        let from_origin = visible_source(&model, &pose, &Point3::origin(), &cfg);
+        // The culling keeps a few points just past the silhouette (0.93 face their camera).
+        assert!(facing(&from_beside, &beside) > 0.9);
+        assert!(facing(&from_origin, &Point3::origin()) > 0.9);
+        // Seen at right angles, a body of revolution shows half its seen side to both cameras.
+        assert!(facing(&from_beside, &Point3::origin()) < 0.6);
+        assert!(facing(&from_origin, &beside) < 0.6);
     }
 
     #[test]
