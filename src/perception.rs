@@ -545,22 +545,25 @@ pub fn check(
     let reference_surface = timings.time("reference_surface", || match &model.mesh {
         Some(m) => Ok(m.transformed(&pose)),
         None => {
-            let visible: Vec<Point3<f64>> = registration.visible.iter().map(|p| pose * p).collect();
+            let visible: Vec<Point3<f64>> = registration
+                .visible
+                .iter()
+                .map(|&i| pose * model.points[i])
+                .collect();
             triangulate_view(&visible, &[], &camera, &cfg.surface)
         }
     })?;
     let free_space = timings.time("free_space", || {
         let scanned = segmentation.as_ref().map_or(&object.points, |s| &s.cloud.points);
-        let seen: Vec<Point3<f64>> = registration.visible.iter().map(|p| pose * p).collect();
+        let seen: Vec<Point3<f64>> = registration
+            .visible
+            .iter()
+            .map(|&i| pose * model.points[i])
+            .collect();
         let normals: Vec<Vector3<f64>> = registration
             .visible
             .iter()
-            .map(|p| {
-                model
-                    .index
-                    .nearest(p)
-                    .map_or(Vector3::zeros(), |nb| pose * model.normals[nb.index])
-            })
+            .map(|&i| pose * model.normals[i])
             .collect();
         let mut ranges: Vec<f64> = object.points.iter().map(|p| (p - camera).norm()).collect();
         let range = crate::cloud::pca::median(&mut ranges).unwrap_or(1.0);

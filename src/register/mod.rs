@@ -88,6 +88,11 @@ impl ReferenceModel {
         }
     }
 
+    /// The model's points at `indices` (model frame).
+    pub fn points_at(&self, indices: &[usize]) -> Vec<Point3<f64>> {
+        indices.iter().map(|&i| self.points[i]).collect()
+    }
+
     fn build(
         points: Vec<Point3<f64>>,
         normals: Vec<Vector3<f64>>,
@@ -242,8 +247,9 @@ pub struct Registration {
     pub initial: Pose,
     /// The global search's outcome (`--init auto`).
     pub init: Option<InitOutcome>,
-    /// The reference points visible from the camera at the final pose (model frame).
-    pub visible: Vec<Point3<f64>>,
+    /// Indices into the model's points (and normals) of those visible from the camera at the
+    /// final pose.
+    pub visible: Vec<usize>,
     /// Fraction of the visible reference points with a scan point within the evaluation distance
     /// (Open3D's `fitness`, the reference being the source).
     pub fitness: f64,
@@ -334,7 +340,7 @@ pub fn register(
             }
         };
         let visible = timings.time("hidden_points", || {
-            visible_source(model, &initial, camera, &cfg.hidden_points)
+            visible_indices(model, &initial, camera, &cfg.hidden_points)
         });
         Ok((initial, init_outcome, visible, timings))
     };
@@ -369,6 +375,7 @@ pub fn register(
     }
     let mut pose = initial;
     let mut iterations = 0;
+    let mut visible = Vec::new();
     let mut source = Vec::new();
     let mut last = None;
     let mut culled_from: Option<Pose> = None;
@@ -377,12 +384,13 @@ pub fn register(
             break;
         }
         culled_from = Some(pose);
-        source = match first_visible.take() {
+        visible = match first_visible.take() {
             Some(v) => v,
             None => timings.time("hidden_points", || {
-                visible_source(model, &pose, camera, &cfg.hidden_points)
+                visible_indices(model, &pose, camera, &cfg.hidden_points)
             }),
         };
+        source = model.points_at(&visible);
         let target = Surfel {
             points: scan,
             normals: &scan_normals,
@@ -401,9 +409,10 @@ pub fn register(
         return Err(Error::failed("icp", "no round ran"));
     };
     if culled_from.is_some_and(|p| silhouette_moved(model, camera, &p, &pose)) {
-        source = timings.time("hidden_points", || {
-            visible_source(model, &pose, camera, &cfg.hidden_points)
+        visible = timings.time("hidden_points", || {
+            visible_indices(model, &pose, camera, &cfg.hidden_points)
         });
+        source = model.points_at(&visible);
     }
     let dist = if cfg.evaluation_distance_m > 0.0 {
         cfg.evaluation_distance_m
@@ -462,7 +471,7 @@ pub fn register(
         t_scan_reference: pose,
         initial,
         init: init_outcome,
-        visible: source,
+        visible,
         fitness,
         scan_fitness,
         inlier_rmse_m,
@@ -509,22 +518,18 @@ fn silhouette_moved(model: &ReferenceModel, camera: &Point3<f64>, from: &Pose, t
     model.shape.spans.max() * (b - a).norm() / range > 0.5 * model.spacing_m
 }
 
-/// The model's points visible from `camera` (scan frame) when the model sits at `pose`, in the
-/// model frame.
-pub fn visible_source(
+/// Indices (increasing) of the model's points visible from `camera` (scan frame) when the model
+/// sits at `pose`; all of them with the hidden-point removal off.
+pub fn visible_indices(
     model: &ReferenceModel,
     pose: &Pose,
     camera: &Point3<f64>,
     cfg: &HiddenPointConfig,
-) -> Vec<Point3<f64>> {
+) -> Vec<usize> {
     if !cfg.enabled {
-        return model.points.clone();
+        return (0..model.points.len()).collect();
     }
-    let camera = pose.inverse() * camera;
-    visible_points(&model.points, &camera, cfg.radius_factor)
-        .into_iter()
-        .map(|i| model.points[i])
-        .collect()
+    visible_points(&model.points, &(pose.inverse() * camera), cfg.radius_factor)
 }
 
 #[cfg(test)]
@@ -682,20 +687,17 @@ pub(crate) mod tests {
         let (points, normals) = bottle(6000, 5);
         let model = ReferenceModel::build(points, normals, None, "model").unwrap();
         let pose = Isometry3::new(Vector3::new(0.0, 0.0, 1.0), Vector3::zeros());
-        let facing = |visible: &[Point3<f64>], camera: &Point3<f64>| {
+        let facing = |visible: &[usize], camera: &Point3<f64>| {
             let toward = visible
                 .iter()
-                .filter(|&p| {
-                    let nb = model.index.nearest(p).unwrap();
-                    model.normals[nb.index].dot(&(pose.inverse() * camera - p)) > 0.0
-                })
+                .filter(|&&i| model.normals[i].dot(&(pose.inverse() * camera - model.points[i])) > 0.0)
                 .count();
             toward as f64 / visible.len() as f64
         };
         let beside = Point3::new(0.0, 1.0, 1.0);
         let cfg = HiddenPointConfig::default();
-        let from_beside = visible_source(&model, &pose, &beside, &cfg);
-        let from_origin = visible_source(&model, &pose, &Point3::origin(), &cfg);
+        let from_beside = visible_indices(&model, &pose, &beside, &cfg);
+        let from_origin = visible_indices(&model, &pose, &Point3::origin(), &cfg);
         // The culling keeps a few points just past the silhouette (0.93 face their camera).
         assert!(facing(&from_beside, &beside) > 0.9);
         assert!(facing(&from_origin, &Point3::origin()) > 0.9);
