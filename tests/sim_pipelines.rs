@@ -1657,6 +1657,61 @@ fn a_tool_off_its_target_fails_the_run() {
     assert!(bottle_run().1["sim"]["failure"].is_null());
 }
 
+/// A stretch of the path that asks for no force may leave the surface: the tool off it there
+/// is no lost contact (the README's `contact_lost_s`: "while a force is asked for"). The
+/// bottle's ring with its force set to 0 N for 1.5 s of its slide leaves the fouled surface
+/// for some 70 logged rows, every one at a 0 N set-point, and the run holds its 60 N elsewhere
+/// (it failed before, exit 1, "lost the surface for 0.686 s").
+#[test]
+fn leaving_the_surface_where_no_force_is_asked_is_no_lost_contact() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(bottle_run().0.join("trajectory.csv")).unwrap();
+    let mut zeroed = 0;
+    let gap: String = text
+        .lines()
+        .map(|l| {
+            let mut f: Vec<&str> = l.split(',').collect();
+            let in_gap = f.len() == 14
+                && f[12] == "contact"
+                && f[0].parse::<f64>().is_ok_and(|t| (18.0..=19.5).contains(&t));
+            if in_gap {
+                f[11] = "0.0";
+                zeroed += 1;
+            }
+            f.join(",") + "\n"
+        })
+        .collect();
+    assert!(zeroed > 10, "{zeroed}");
+    let trajectory = dir.path().join("gap.csv");
+    std::fs::write(&trajectory, gap).unwrap();
+    let out = dir.path().join("o");
+    let o = sim_on(
+        &trajectory,
+        &bottle_run().0.join("config.toml"),
+        &out,
+        &["--quiet"],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let series = Series::read(&out);
+    let (t, contact, set) = (
+        series.values("t_s"),
+        series.values("contact"),
+        series.values("f_set_n"),
+    );
+    let first = contact.iter().position(|&c| c == 1.0).unwrap();
+    let off: Vec<f64> = (first..t.len())
+        .filter(|&i| contact[i] == 0.0 && series.rows[i][series.col("phase")] == "contact")
+        .map(|i| set[i])
+        .collect();
+    assert!(off.len() > 20 && off.iter().all(|&f| f == 0.0), "{off:?}");
+    let s = summary_in(&out);
+    assert_eq!(s["contact_lost_s"].as_f64().unwrap(), 0.0, "{s}");
+    assert!(
+        (s["force_settled_error_mean_n"].as_f64().unwrap()).abs() < 3.0,
+        "{s}"
+    );
+}
+
 /// A force asked for and not held is a failed contact operation: on a surface ten times softer
 /// than planned for (k = 1e3 N/m) the force loop's offset reaches its 5 cm limit at 50 N, and
 /// the dwell waits its 10 s for a force that never settles (tried: settled at 49.3 N, exit 0

@@ -416,10 +416,8 @@ fn operation_failure(
         .phase(Phase::Contact)
         .map(|s| s.force)
         .fold(0.0, f64::max);
-    // A phase asking for no force whose points lie no deeper than the depth whose spring
-    // force is within the force tolerance is a skim: the planned surface (a scan) may lie a
-    // fraction of a millimetre off the true one.
-    if force <= 0.0 && depth <= cfg.dwell.tolerance_n / cfg.contact.stiffness_n_m {
+    // A phase asking for no force whose points lie no deeper than a skim.
+    if force <= 0.0 && depth <= cfg.skim_depth_m() {
         return None;
     }
     let asked = crate::config::shown_to(force, 1);

@@ -385,6 +385,14 @@ impl Default for SimConfig {
 }
 
 impl SimConfig {
+    /// How deep inside the material a target may lie and still be a skim, not a demand for
+    /// contact, m: the depth whose spring force is within the force tolerance
+    /// (`dwell.tolerance_n / contact.stiffness_n_m`; the planned surface, a scan, may lie a
+    /// fraction of a millimetre off the true one).
+    pub fn skim_depth_m(&self) -> f64 {
+        self.dwell.tolerance_n / self.contact.stiffness_n_m
+    }
+
     /// Checks every value.
     ///
     /// # Errors
@@ -934,9 +942,15 @@ pub fn simulate(
         if margin.0 < limit_margin.0 {
             limit_margin = margin;
         }
+        // Out of contact while the trajectory asks for it: a force, or a target inside the
+        // material deeper than a skim (the depth is looked up only out of contact).
+        let lost_contact = !cs.in_contact()
+            && matches!(s.phase, Phase::Dwell | Phase::Contact)
+            && (s.force > 0.0 || contact.depth(&s.position) > cfg.skim_depth_m());
         rec.observe(&record::Observation {
             phase: s.phase,
             t,
+            lost_contact,
             f_k_true: -s.k.dot(&cs.wrench.lin),
             f_set: s.force,
             f_norm: cs.wrench.lin.norm(),

@@ -170,6 +170,9 @@ pub struct Observation {
     pub f_norm: f64,
     /// In contact.
     pub in_contact: bool,
+    /// Out of contact while the trajectory asks the tool to touch the surface (in the dwell or
+    /// the contact phase, a force or a target inside the material deeper than a skim).
+    pub lost_contact: bool,
     /// Largest error of the identified external moments, N·m.
     pub m_ez_error: f64,
     /// Tool deviation `‖e‖`, m.
@@ -325,9 +328,8 @@ impl Recorder {
         if o.in_contact && self.first_contact.is_none() {
             self.first_contact = Some(o.t);
         }
-        let pressing = matches!(o.phase, Phase::Dwell | Phase::Contact);
         if let Some(t1) = self.first_contact {
-            if pressing && !o.in_contact {
+            if o.lost_contact {
                 self.lost += dt;
             }
             if o.phase == Phase::Contact && self.path_start.is_none() {
@@ -688,6 +690,7 @@ mod tests {
             f_k_id_error: 0.0,
             f_norm: 0.0,
             in_contact,
+            lost_contact: false,
             m_ez_error,
             deviation: 0.0,
             path_error: 0.0,
@@ -722,8 +725,9 @@ mod tests {
     }
 
     /// The settled figures count the contact phase from `settle_time` after the first contact
-    /// (a lost contact there too, as 0 N); contact is lost only while force is demanded after
-    /// the first contact; the identification's quantiles take the periods in contact alone.
+    /// (a lost contact there too, as 0 N); contact is lost only after the first contact, in
+    /// the periods the run found it lost (the dwell or the contact phase out of contact); the
+    /// identification's quantiles take the periods in contact alone.
     #[test]
     fn settled_force_lost_contact_and_quantiles_from_hand_made_periods() {
         let mut rec = Recorder::new((60.0, 60.0), 1.0);
@@ -731,6 +735,7 @@ mod tests {
             phase,
             f_k_true: f,
             in_contact,
+            lost_contact: !in_contact && matches!(phase, Phase::Dwell | Phase::Contact),
             m_ez_error: if in_contact { 1.0 } else { 9.0 },
             ..observation(t, false, 0.0)
         };
