@@ -30,7 +30,8 @@
 //! bad one (exit code 2).
 //!
 //! # PLY export (`trajectory.ply`)
-//! A line set to view over the scan in CloudCompare, MeshLab or Open3D: the path (white in
+//! A line set in the scan frame `S`, to view over the scan and its surfaces in CloudCompare,
+//! MeshLab or Open3D: the path (white in
 //! contact, yellow approach, orange dwell, cyan retreat, magenta where it lies on the reference
 //! mesh) and, every few samples, the tool axes `x_G` (red), `y_G` (green), `z_G` (blue).
 
@@ -326,14 +327,21 @@ impl Trajectory {
         Ok(traj)
     }
 
-    /// Writes the PLY line set (module docs give the colours). Axes of length `axis_length`
-    /// metres are drawn at every `axis_every`-th contact sample (none if 0).
+    /// Writes the PLY line set (module docs give the colours) in the frame `V`, given by
+    /// `t_view_world` (the scan frame, to view over the scan's surfaces). Axes of length
+    /// `axis_length` metres are drawn at every `axis_every`-th contact sample (none if 0).
     ///
     /// # Errors
     /// [`Error::Failed`] if the writer fails.
-    pub fn write_ply(&self, w: &mut dyn Write, axis_length: f64, axis_every: usize) -> Result<()> {
+    pub fn write_ply(
+        &self,
+        w: &mut dyn Write,
+        t_view_world: &Pose,
+        axis_length: f64,
+        axis_every: usize,
+    ) -> Result<()> {
         let n = self.samples.len();
-        let mut points: Vec<Point3<f64>> = self.samples.iter().map(|s| s.position).collect();
+        let mut points: Vec<Point3<f64>> = self.samples.iter().map(|s| t_view_world * s.position).collect();
         let mut colors: Vec<[u8; 3]> = self
             .samples
             .iter()
@@ -350,8 +358,9 @@ impl Trajectory {
             for s in self.phase(Phase::Contact).step_by(axis_every) {
                 for (axis, color) in s.axes().iter().zip([[255, 0, 0], [0, 255, 0], [0, 0, 255]]) {
                     let base = points.len() as u32;
-                    points.push(s.position);
-                    points.push(s.position + axis * axis_length);
+                    let base_point = t_view_world * s.position;
+                    points.push(base_point);
+                    points.push(base_point + t_view_world.rotation * axis * axis_length);
                     colors.extend([color, color]);
                     edges.push([base, base + 1]);
                 }
@@ -617,7 +626,9 @@ mod tests {
     #[test]
     fn ply_has_path_and_axes() {
         let mut buf = Vec::new();
-        demo().write_ply(&mut buf, 0.02, 2).unwrap();
+        // Written in a view frame (the scan's) turned and moved from the world.
+        let view = Isometry3::new(Vector3::new(0.1, -0.2, 0.3), Vector3::new(0.2, 0.1, -0.3));
+        demo().write_ply(&mut buf, &view, 0.02, 2).unwrap();
         let text = String::from_utf8_lossy(&buf);
         // 5 path vertices + 2 axis frames (contact samples 1 and 3) × 3 axes × 2 vertices.
         assert!(text.contains("element vertex 17\n"), "{text}");
@@ -632,10 +643,10 @@ mod tests {
         assert_eq!(cloud.len(), 17);
         assert!(info.has_colors);
         let t = demo();
-        assert_eq!(cloud.points[2], t.samples[2].position);
+        assert!((cloud.points[2] - view * t.samples[2].position).norm() < 1e-12);
         // The z axis of the first drawn frame (contact sample 1) ends 2 cm along k.
         let tip = cloud.points[5 + 5];
-        assert!((tip - (t.samples[1].position + t.samples[1].k * 0.02)).norm() < 1e-12);
+        assert!((tip - view * (t.samples[1].position + t.samples[1].k * 0.02)).norm() < 1e-12);
         assert_eq!(cloud.colors.unwrap()[10], [0, 0, 255]);
     }
 }

@@ -75,6 +75,24 @@ fn plan_a_ring_on_the_bottle_scan() {
     assert_eq!(traj.samples.len() as u64, summary["points"].as_u64().unwrap());
     assert!((traj.duration() - summary["duration_s"].as_f64().unwrap()).abs() < 1e-5);
     assert!(traj.phase(Phase::Contact).count() > 100);
+    // `trajectory.ply` lies over `scan_surface.ply`, in the scan frame: its path's contact
+    // vertices (the first of the file's vertices, one a sample) within a few millimetres of the
+    // scanned surface, or of the reference's where the scan had a hole (written in the world
+    // frame they were a metre off).
+    let (path, _) = uvms::io::ply::read_cloud(&out.join("trajectory.ply")).unwrap();
+    let surface =
+        |f: &str| uvms::surface::Surface::new(&uvms::io::ply::read_mesh(&out.join(f)).unwrap()).unwrap();
+    let (scanned, reference) = (surface("scan_surface.ply"), surface("reference_surface.ply"));
+    let contact = traj
+        .samples
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.phase == Phase::Contact);
+    for (i, s) in contact {
+        let under = if s.fallback { &reference } else { &scanned };
+        let d = under.distance_within(&path.points[i], 0.005);
+        assert!(d.is_some(), "sample {i} at {} is off the surface", path.points[i]);
+    }
     // The resolved configuration runs again as it is, to the same trajectory.
     let again = dir.path().join("again");
     let o2 = run(&[

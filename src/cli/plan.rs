@@ -2,7 +2,7 @@
 //! [--ground-truth TRUTH.json] [--up X,Y,Z] [--init auto|identity|FILE.json] [--config F]
 //! --out DIR`: segment + check + plan in one go. Writes what `uvms check` writes, plus
 //! `trajectory.csv` (the trajectory in the world frame `W`, the simulation's input),
-//! `trajectory.ply` (the path with tool axes, to view over `scan_surface.ply`), `summary.json`
+//! `trajectory.ply` (the path with tool axes in the scan frame, over `scan_surface.ply`), `summary.json`
 //! and the resolved `config.toml` (`[perception]` and `[plan]` tables).
 //!
 //! Without `--reference`, only the line pattern can be planned (soil sampling on a patch of
@@ -382,7 +382,10 @@ pub fn plan_stage(
         trajectory.notes.push(format!("reference: {}", r.display()));
     }
     out.write_with("trajectory.csv", |w| trajectory.write_csv(w))?;
-    out.write_with("trajectory.ply", |w| trajectory.write_ply(w, 0.02, 25))?;
+    let t_scan_world = cfg.plan.frames.t_world_scan().inverse();
+    out.write_with("trajectory.ply", |w| {
+        trajectory.write_ply(w, &t_scan_world, 0.02, 25)
+    })?;
     let plan_summary = serde_json::to_value(&report).map_err(|e| Error::failed("summary", e))?;
     summary["scan"] = json!(args.scan.display().to_string());
     text += &plan_text(&report);

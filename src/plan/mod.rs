@@ -31,7 +31,6 @@ pub mod tool_frame;
 use crate::error::{Error, Result};
 use crate::frames::{Pose, ScanFrames, pose_to_rows};
 use crate::mesh::TriangleMesh;
-use crate::output::OutDir;
 use crate::trajectory::{Phase, Trajectory};
 use nalgebra::{Point3, SymmetricEigen, Vector3};
 use patterns::{
@@ -257,21 +256,6 @@ pub struct Plan {
     pub trajectory: Trajectory,
     /// Diagnostics.
     pub report: PlanReport,
-}
-
-impl Plan {
-    /// Writes `trajectory.csv` and `trajectory.ply` (axes every `axis_every` contact samples,
-    /// 2 cm long) into `out`.
-    ///
-    /// # Errors
-    /// As [`OutDir::write_with`].
-    pub fn write(&self, out: &OutDir, axis_every: usize) -> Result<()> {
-        out.write_with("trajectory.csv", |w| self.trajectory.write_csv(w))?;
-        out.write_with("trajectory.ply", |w| {
-            self.trajectory.write_ply(w, 0.02, axis_every)
-        })?;
-        Ok(())
-    }
 }
 
 /// Plans a trajectory: pattern, projection, resampling, tool frames, timing, world frame.
