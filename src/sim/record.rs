@@ -200,7 +200,8 @@ pub struct Figures {
     pub force_setpoint_min_n: f64,
     /// Mean true force along `k` in the contact phase once settled, N.
     pub force_settled_mean_n: f64,
-    /// Largest true force along `k`, N.
+    /// Largest true force along `k` over the whole run (every control period, the approach's
+    /// included), N.
     pub force_max_n: f64,
     /// Largest true force along `k` in the transients, from the first contact until
     /// `settle_time_s` after the path starts (the contact phase): the overshoot of the force's
