@@ -542,24 +542,18 @@ pub fn check(
         });
         triangulate_view(&object.points, &others, &camera, &cfg.surface)
     })?;
+    // The aligned model's points the camera sees.
+    let seen: Vec<Point3<f64>> = registration
+        .visible
+        .iter()
+        .map(|&i| pose * model.points[i])
+        .collect();
     let reference_surface = timings.time("reference_surface", || match &model.mesh {
         Some(m) => Ok(m.transformed(&pose)),
-        None => {
-            let visible: Vec<Point3<f64>> = registration
-                .visible
-                .iter()
-                .map(|&i| pose * model.points[i])
-                .collect();
-            triangulate_view(&visible, &[], &camera, &cfg.surface)
-        }
+        None => triangulate_view(&seen, &[], &camera, &cfg.surface),
     })?;
     let free_space = timings.time("free_space", || {
         let scanned = segmentation.as_ref().map_or(&object.points, |s| &s.cloud.points);
-        let seen: Vec<Point3<f64>> = registration
-            .visible
-            .iter()
-            .map(|&i| pose * model.points[i])
-            .collect();
         let normals: Vec<Vector3<f64>> = registration
             .visible
             .iter()

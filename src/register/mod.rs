@@ -4,7 +4,8 @@
 //!
 //! Convention (as small_gicp's `T_target_source`): the reference model is the ICP source, the
 //! scanned object the target, and the result `t_scan_reference` maps reference coordinates into
-//! the scan frame `S` (the camera where `[view] camera_m` puts it, the origin by default). Units: metres, degrees in reports.
+//! the scan frame `S` (the camera where `[view] camera_m` puts it, the origin by default).
+//! Units: metres, degrees in reports.
 
 pub mod hidden_points;
 pub mod hull;
