@@ -1757,6 +1757,32 @@ fn a_force_not_held_is_a_failed_run() {
     );
 }
 
+/// A ring of four passes 1 cm apart (`[plan.ring] width_m = 0.03`, a steady tool): between
+/// passes the path turns, and the station the search chose checking 60 of its samples flipped
+/// the wrist between two of them (exit 1, "check more samples"); the search runs again checking
+/// twice as many and the run cleans the band at the bottle's figures.
+#[test]
+fn a_multi_pass_ring_is_searched_again_with_more_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ring, force) = ("pattern = \"ring\"", "force_n = 60.0");
+    let steady = format!("{ring}\n\n[plan.tool]\nx_axis = \"steady\"");
+    let wide = format!("{force}\nwidth_m = 0.03");
+    let p = pipeline_with(
+        "bottle_cleaning",
+        dir.path(),
+        "wide.toml",
+        &[(ring, &steady), (force, &wide)],
+    );
+    let s = run_pipeline(&p, &dir.path().join("o"));
+    let sim = &s["sim"];
+    let f = |key: &str| sim[key].as_f64().unwrap();
+    assert!(sim["failure"].is_null() && f("contact_lost_s") == 0.0, "{sim}");
+    assert!((f("force_settled_mean_n") - 60.0).abs() <= 1.0, "{sim}");
+    assert!(f("force_overshoot_n") <= 85.0, "{sim}");
+    assert!(f("tool_deviation_max_m") <= 0.006, "{sim}");
+    assert!(f("auv_deviation_max_m") <= 0.04, "{sim}");
+}
+
 /// A raster on the bottle: each row's end reverses the path. With the tool's `x_G` following the
 /// travel the tool must turn half round about `k` there, and no hover point follows it (exit 1
 /// at the hover point); with a tool symmetric about its axis (`[plan.tool] x_axis = "steady"`)

@@ -33,7 +33,7 @@
 //! says how far the best got, and so is a winner whose thrusters or drives would need more than
 //! they have (the least loaded when none is within the limits: no candidate can hold the
 //! contact), or whose branch, followed through every sample of the trajectory, fails one
-//! between those checked.
+//! between those checked once the search has run again checking twice and four times as many.
 
 use crate::arm::{Arm, BaseMotion, JointVector};
 use crate::config::{non_negative, positive, require, shown, shown_to, shown_xyz};
@@ -70,7 +70,8 @@ pub struct HoverConfig {
     /// Least distance of every joint from its limits at the checked samples, rad: room for the
     /// joint control to correct the vehicle's motion (0: the limits themselves).
     pub min_limit_margin_rad: f64,
-    /// Samples checked: about this many, evenly spread.
+    /// Samples checked: about this many, evenly spread (up to four times as
+    /// many when the chosen station fails between them).
     pub samples: usize,
     /// Expected resistance to the tool's motion in contact (soil, friction), N.
     pub drag_n: f64,
@@ -389,7 +390,7 @@ fn step(
 }
 
 /// Follows the chosen station's branch from `q_start` through every sample of `trajectory`
-/// (the search checked about `cfg.samples` of them), each a [`step`] from the last.
+/// (the search checked about `samples` of them), each a [`step`] from the last.
 ///
 /// # Errors
 /// [`Error::Failed`] (stage `hover`) naming the first sample that is not.
@@ -399,6 +400,7 @@ fn follow_every_sample(
     q_start: &JointVector,
     trajectory: &Trajectory,
     cfg: &HoverConfig,
+    samples: usize,
 ) -> Result<()> {
     let t_base_world = (t_world_body * arm.t_body_base()).inverse();
     let side = q_start[4].signum();
@@ -414,8 +416,15 @@ fn follow_every_sample(
         return Err(Error::failed(
             "hover",
             format!(
-                "the best station reaches the samples the search checks (about sim.hover.samples = {}), but the point at t = {:.2} s between them ({} phase, at {} m) {why}: check more samples",
-                cfg.samples,
+                "the best station reaches the samples the search checks (about {}), but the point at t = {:.2} s between them ({} phase, at {} m) {why}: check more samples",
+                if samples == cfg.samples {
+                    format!("sim.hover.samples = {samples}")
+                } else {
+                    format!(
+                        "{samples}: sim.hover.samples = {} doubled, each search's station missing a point between those it checked",
+                        cfg.samples
+                    )
+                },
                 s.t,
                 s.phase.as_str(),
                 shown_xyz(&s.position.coords.into(), 3)
@@ -539,7 +548,33 @@ pub fn choose(
     if n == 0 {
         return Err(Error::input("trajectory", "has no samples"));
     }
-    let stride = n.div_ceil(cfg.samples).max(1);
+    let mut samples = cfg.samples;
+    loop {
+        match search(system, thrusters, trajectory, cfg, samples)? {
+            Ok(hover) => return Ok(hover),
+            Err(_) if samples < n && samples < MAX_SAMPLES_FACTOR * cfg.samples => samples *= 2,
+            Err(missed) => return Err(missed),
+        }
+    }
+}
+
+/// How many times `samples` the search checks at most: when the chosen station's branch fails
+/// between the checked samples, the search runs again with twice as many (a multi-pass ring's
+/// turns between passes flipped the wrist between samples 28 apart), while that is fewer than the
+/// trajectory's samples and at most this many times the configured count.
+const MAX_SAMPLES_FACTOR: usize = 4;
+
+/// [`choose`]'s search checking about `samples` of the trajectory's samples; `Ok(Err(_))` when
+/// the chosen station's branch fails between them (a failed run naming the sample).
+fn search(
+    system: &Multibody,
+    thrusters: &Thrusters,
+    trajectory: &Trajectory,
+    cfg: &HoverConfig,
+    samples: usize,
+) -> Result<std::result::Result<Hover, Error>> {
+    let n = trajectory.samples.len();
+    let stride = n.div_ceil(samples).max(1);
     let mut idx: Vec<usize> = (0..n).step_by(stride).collect();
     if idx.last() != Some(&(n - 1)) {
         idx.push(n - 1);
@@ -658,14 +693,17 @@ pub fn choose(
             ))
         }
         Some((pose, r)) if r.reached == targets.len() => {
-            follow_every_sample(&system.arm, &pose, &r.q_start, trajectory, cfg)?;
-            Ok(Hover {
-                t_world_body: pose,
-                q_start: r.q_start,
-                manipulability: r.manipulability,
-                thrust_utilisation: r.thrust,
-                drive_utilisation: r.drive.0,
-            })
+            Ok(
+                follow_every_sample(&system.arm, &pose, &r.q_start, trajectory, cfg, samples).map(|()| {
+                    Hover {
+                        t_world_body: pose,
+                        q_start: r.q_start,
+                        manipulability: r.manipulability,
+                        thrust_utilisation: r.thrust,
+                        drive_utilisation: r.drive.0,
+                    }
+                }),
+            )
         }
         best => {
             let (reached, stop) = best.map_or((0, None), |(_, r)| (r.reached, r.stop));
@@ -1011,21 +1049,17 @@ mod tests {
         assert!(bad.validate().is_err());
     }
 
-    /// A tool held at one point but for a 5 m excursion over samples 47–49 of 101, between
-    /// those the search checks (`samples = 4`: every 26th): every station reaches the checked
-    /// ones, and following the chosen one through every sample finds the excursion out of
-    /// reach, a failed run naming it.
+    /// A tool held at one point but for a 5 m excursion at sample 48 of 101, between those the
+    /// search checks (`samples = 4`: every 26th; doubled twice, every 13th and every 7th):
+    /// every station reaches the checked ones, and following the chosen one through every
+    /// sample finds the excursion out of reach, a failed run naming it and the samples checked.
     #[test]
     fn the_chosen_station_is_followed_through_every_sample() {
         let mb = Multibody::new(&UvmsModel::default()).unwrap();
         let at = stroke(&mb, &Isometry3::identity(), 0.0).samples[0];
         let samples = (0..=100)
             .map(|i| {
-                let out = match i {
-                    48 => 5.0,
-                    47 | 49 => 2.5,
-                    _ => 0.0,
-                };
+                let out = if i == 48 { 5.0 } else { 0.0 };
                 Sample {
                     t: i as f64,
                     position: at.position + Vector3::new(0.0, out, 0.0),
@@ -1047,8 +1081,8 @@ mod tests {
         assert_eq!(e.exit_code(), 1);
         let e = e.to_string();
         assert!(
-            e.contains("about sim.hover.samples = 4")
-                && e.contains("t = 47.00 s")
+            e.contains("about 16: sim.hover.samples = 4 doubled")
+                && e.contains("t = 48.00 s")
                 && e.contains("is out of the arm's reach"),
             "{e}"
         );
