@@ -238,6 +238,9 @@ pub struct Segmentation {
     pub seabed: Option<SeabedFit>,
     /// Points on the object side of the seabed (all points without the seabed stage).
     pub object_side: Vec<usize>,
+    /// The clusters' link, metres (`cluster.tolerance_m` or longer for a sparse scan; `None`
+    /// with clustering off).
+    pub link_m: Option<f64>,
     /// Clusters (largest first); one cluster of the whole object side when clustering is off.
     pub clusters: Vec<Cluster>,
     /// The object's cluster.
@@ -340,11 +343,24 @@ pub fn segment(
         ));
     }
     let side_points: Vec<Point3<f64>> = object_side.iter().map(|&i| cloud.points[i]).collect();
+    let mut link_m = None;
     let clusters = timings.time("cluster", || -> Result<Vec<Cluster>> {
         if cfg.cluster.enabled {
-            let found = euclidean_clusters(&side_points, &cfg.cluster)?;
+            let spacing = KdIndex::new(&side_points).map_or(0.0, |ix| median_spacing(&side_points, &ix));
+            let linked = ClusterConfig {
+                tolerance_m: cfg.cluster.link_m(spacing),
+                ..cfg.cluster.clone()
+            };
+            link_m = Some(linked.tolerance_m);
+            let found = euclidean_clusters(&side_points, &linked)?;
             if found.clusters.is_empty() {
-                return Err(no_cluster(&side_points, &found, reference_spans, &cfg.cluster));
+                return Err(no_cluster(
+                    &side_points,
+                    &found,
+                    reference_spans,
+                    &linked,
+                    spacing,
+                ));
             }
             // Back to indices into the cleaned cloud.
             Ok(found
@@ -372,6 +388,7 @@ pub fn segment(
         cleaning,
         seabed,
         object_side,
+        link_m,
         clusters,
         selection,
         timings,
@@ -439,8 +456,8 @@ fn no_cluster(
     found: &Clustering,
     reference_spans: Option<&Vector3<f64>>,
     cfg: &ClusterConfig,
+    spacing: f64,
 ) -> Error {
-    let spacing = KdIndex::new(points).map_or(0.0, |index| median_spacing(points, &index));
     // Points a tenth of the reference's size apart are the scan's units, not its density.
     let units = match reference_spans {
         Some(r) if spacing > 0.1 * r.max() => "; the scan in millimetres? (PLY coordinates must be metres)",
@@ -449,7 +466,7 @@ fn no_cluster(
     Error::failed(
         "cluster",
         format!(
-            "no cluster above the seabed: of its {} points, {} lie in clusters of fewer than perception.cluster.min_points = {} and {} clusters exceed max_points = {}, linked within perception.cluster.tolerance_m = {} m, while a point's nearest lies {} m from it (median): a scan sparser than the link, such as one from a far camera, needs a longer link{units}",
+            "no cluster above the seabed: of its {} points, {} lie in clusters of fewer than perception.cluster.min_points = {} and {} clusters exceed max_points = {}, linked within {} m (perception.cluster.tolerance_m, or spacing_factor times the spacing), while a point's nearest lies {} m from it (median): a scan sparser than the link, such as one from a far camera, needs a longer link{units}",
             points.len(),
             found.small_points,
             cfg.min_points,
@@ -632,6 +649,29 @@ mod tests {
     use super::*;
     use crate::config::from_toml_str;
 
+    /// A plate scanned 12 mm apart, sparser than the 10 mm link: every point alone and no
+    /// cluster with the link fixed (`spacing_factor = 0`), one cluster of every point with the
+    /// link at twice the spacing.
+    #[test]
+    fn the_cluster_link_follows_a_sparse_scan() {
+        let plate: Vec<Point3<f64>> = (0..30 * 20)
+            .map(|i| Point3::new((i % 30) as f64 * 0.012, (i / 30) as f64 * 0.012, 1.0))
+            .collect();
+        let scan = PointCloud {
+            points: plate,
+            ..PointCloud::default()
+        };
+        let mut cfg = PerceptionConfig::default();
+        cfg.seabed.enabled = false;
+        cfg.clean.remove_outliers = false;
+        let seg = segment(&scan, None, None, &cfg).unwrap();
+        assert_eq!(seg.object().indices.len(), 600);
+        assert!((seg.link_m.unwrap() - 0.024).abs() < 1e-9, "{:?}", seg.link_m);
+        cfg.cluster.spacing_factor = 0.0;
+        let e = segment(&scan, None, None, &cfg).unwrap_err().to_string();
+        assert!(e.contains("linked within 0.01 m"), "{e}");
+    }
+
     /// The values the review found accepted, or failing late with the wrong exit code.
     #[test]
     fn every_bad_value_is_named_before_work_starts() {
@@ -664,6 +704,8 @@ mod tests {
                 "seabed.max_iterations",
             ),
             ("[cluster]\nspan_quantile = nan", "cluster.span_quantile"),
+            ("[cluster]\nspacing_factor = -1.0", "cluster.spacing_factor"),
+            ("[cluster]\nspacing_factor = 1e3", "cluster.spacing_factor"),
             ("[cluster]\nspan_quantile = 1e300", "cluster.span_quantile"),
             ("[select]\ndepth_weight = nan", "select.depth_weight"),
             ("[select]\ndepth_weight = inf", "select.depth_weight"),

@@ -129,6 +129,7 @@ pub fn segmentation_summary(seg: &Segmentation) -> Value {
         "scan_points": seg.cleaning.input,
         "cleaning": seg.cleaning,
         "object_side_points": seg.object_side.len(),
+        "cluster_link_m": seg.link_m,
         "clusters": clusters,
         "object_cluster": seg.selection.index,
         "object_points": seg.object().indices.len(),
