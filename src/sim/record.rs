@@ -9,7 +9,9 @@
 //! `M_dz − M_wz`, N·m), `fex_true, fey_true, fez_true` and `fex_id..` (the surface's force on
 //! the tool `ᴳF_e` in the tool frame `G`, true and identified, N), `fk_true_n`, `fk_id_n` (the
 //! tool's force along `k`; the true values of these three pairs are the previous control
-//! period's, the one whose sensor readings the identification was made of), `f_set_n`,
+//! period's, the one whose sensor readings the identification was made of, taken along this
+//! period's `k` and tool frame, so `fk_true_n` may differ from the force the summary's figures
+//! count at that period by the turn of `k` over one period: up to 0.03 N), `f_set_n`,
 //! `offset_m` (the FCU's `x̃`), `tool_x_m..` (tool tip),
 //! `e_x_m, e_y_m, e_z_m, e_m` (tool tip minus where the control system wants it, `P* + ΔP*`),
 //! `r_x_m, r_y_m, r_z_m, r_m` (vehicle minus its stabilisation point), `phi_rad, theta_rad,
