@@ -458,6 +458,16 @@ fn no_cluster(
     cfg: &ClusterConfig,
     spacing: f64,
 ) -> Error {
+    if points.len() < cfg.min_points {
+        return Error::failed(
+            "cluster",
+            format!(
+                "no cluster above the seabed: only {} points lie on its object side, fewer than perception.cluster.min_points = {}: a bare seabed, or an object lower than the seabed's threshold",
+                points.len(),
+                cfg.min_points
+            ),
+        );
+    }
     // Points a tenth of the reference's size apart are the scan's units, not its density.
     let units = match reference_spans {
         Some(r) if spacing > 0.1 * r.max() => "; the scan in millimetres? (PLY coordinates must be metres)",
@@ -670,6 +680,12 @@ mod tests {
         cfg.cluster.spacing_factor = 0.0;
         let e = segment(&scan, None, None, &cfg).unwrap_err().to_string();
         assert!(e.contains("linked within 0.01 m"), "{e}");
+        // The plate as a seabed with one point before it: a bare seabed, not a sparse scan.
+        let mut bare = scan.clone();
+        bare.points.push(Point3::new(0.1, 0.1, 0.9));
+        cfg.seabed.enabled = true;
+        let e = segment(&bare, None, None, &cfg).unwrap_err().to_string();
+        assert!(e.contains("only 1 points lie on its object side"), "{e}");
     }
 
     /// The values the review found accepted, or failing late with the wrong exit code.

@@ -363,9 +363,17 @@ fn check_counts(h: &Header, payload_len: usize) -> std::result::Result<(), Strin
     let avail = payload_len as u128;
     let mut needed: u128 = 0;
     for e in &h.elements {
-        let (per_record, unit) = match h.encoding {
-            Encoding::Ascii => (2 * e.props.len() as u128, "bytes of text"),
-            _ => (u128::from(e.min_binary_record()), "bytes"),
+        let (per_record, unit, causes) = match h.encoding {
+            Encoding::Ascii => (
+                2 * e.props.len() as u128,
+                "bytes of text",
+                "truncated file, impossible count, or lines with fewer values than the properties",
+            ),
+            _ => (
+                u128::from(e.min_binary_record()),
+                "bytes",
+                "truncated file or impossible count",
+            ),
         };
         needed += u128::from(e.count) * per_record;
         // An ascii file's last value needs no separator.
@@ -373,7 +381,7 @@ fn check_counts(h: &Header, payload_len: usize) -> std::result::Result<(), Strin
         if needed > avail + slack {
             return Err(format!(
                 "payload too short: element '{}' declares {} records of at least {} {unit} each, \
-                 but only {} bytes follow the header (truncated file or impossible count)",
+                 but only {} bytes follow the header ({causes})",
                 e.name, e.count, per_record, payload_len
             ));
         }
@@ -1425,6 +1433,13 @@ mod tests {
         let e = ascii_err(XYZ3, "0 0 0\n1 1\n2 2 2 3\n", Faces::Skip);
         assert!(
             e.starts_with("line 9: record 1 of element 'vertex' has 2 values"),
+            "{e}"
+        );
+        // Too short to hold the declared records at all: the count check says so, and names
+        // the short line among its causes.
+        let e = ascii_err(XYZ3, "0 0\n1 1 1\n2 2 2\n", Faces::Skip);
+        assert!(
+            e.starts_with("payload too short") && e.contains("lines with fewer values than the properties"),
             "{e}"
         );
         // On the last line, the file was cut short.
