@@ -347,6 +347,20 @@ pub fn segment(
     let clusters = timings.time("cluster", || -> Result<Vec<Cluster>> {
         if cfg.cluster.enabled {
             let spacing = KdIndex::new(&side_points).map_or(0.0, |ix| median_spacing(&side_points, &ix));
+            // Points farther apart than the reference is long are the scan's units, not its
+            // density (the bottle's scan in millimetres: 4.8 "m" apart, against its 0.71 m).
+            if let Some(r) = reference_spans
+                && spacing > r.max()
+            {
+                return Err(Error::failed(
+                    "cluster",
+                    format!(
+                        "the points above the seabed lie {} m from their nearest (median), farther than the reference's {} m is long: the scan in millimetres? (PLY coordinates must be metres)",
+                        crate::config::shown_significant(spacing, 2),
+                        crate::config::shown_significant(r.max(), 2)
+                    ),
+                ));
+            }
             let linked = ClusterConfig {
                 tolerance_m: cfg.cluster.link_m(spacing),
                 ..cfg.cluster.clone()
@@ -354,13 +368,7 @@ pub fn segment(
             link_m = Some(linked.tolerance_m);
             let found = euclidean_clusters(&side_points, &linked)?;
             if found.clusters.is_empty() {
-                return Err(no_cluster(
-                    &side_points,
-                    &found,
-                    reference_spans,
-                    &linked,
-                    spacing,
-                ));
+                return Err(no_cluster(&side_points, &found, &linked, spacing));
             }
             // Back to indices into the cleaned cloud.
             Ok(found
@@ -449,15 +457,8 @@ pub struct CheckResult {
 }
 
 /// The failure of a clustering that found no cluster, with what it found: the points above the
-/// seabed in clusters too small (a scan sparser than the link's length) or too large, and a hint
-/// at the units when the points span a thousand times the reference.
-fn no_cluster(
-    points: &[Point3<f64>],
-    found: &Clustering,
-    reference_spans: Option<&Vector3<f64>>,
-    cfg: &ClusterConfig,
-    spacing: f64,
-) -> Error {
+/// seabed in clusters too small (a scan sparser than the link's length) or too large.
+fn no_cluster(points: &[Point3<f64>], found: &Clustering, cfg: &ClusterConfig, spacing: f64) -> Error {
     if points.len() < cfg.min_points {
         return Error::failed(
             "cluster",
@@ -468,15 +469,10 @@ fn no_cluster(
             ),
         );
     }
-    // Points a tenth of the reference's size apart are the scan's units, not its density.
-    let units = match reference_spans {
-        Some(r) if spacing > 0.1 * r.max() => "; the scan in millimetres? (PLY coordinates must be metres)",
-        _ => "",
-    };
     Error::failed(
         "cluster",
         format!(
-            "no cluster above the seabed: of its {} points, {} lie in clusters of fewer than perception.cluster.min_points = {} and {} clusters exceed max_points = {}, linked within {} m (perception.cluster.tolerance_m, or spacing_factor times the spacing), while a point's nearest lies {} m from it (median): a scan sparser than the link, such as one from a far camera, needs a longer link{units}",
+            "no cluster above the seabed: of its {} points, {} lie in clusters of fewer than perception.cluster.min_points = {} and {} clusters exceed max_points = {}, linked within {} m (perception.cluster.tolerance_m, or spacing_factor times the spacing), while a point's nearest lies {} m from it (median): a scan sparser than the link, such as one from a far camera, needs a longer link",
             points.len(),
             found.small_points,
             cfg.min_points,

@@ -330,12 +330,45 @@ fn no_cluster_fitting_the_reference_is_exit_1() {
 }
 
 /// A clustering that finds no cluster says what it found: the bottle seen from 2.5 m, its points
-/// 11 mm apart, farther than the 10 mm link; and the committed scan in millimetres, whose
-/// points lie metres apart in the file's numbers, is named as such.
+/// 11 mm apart, farther than a 10 mm link held fixed (`spacing_factor = 0`); with the link at
+/// twice their spacing (the default) it is found and aligned. The committed scan in
+/// millimetres, whose points lie metres apart in the file's numbers, is named as such.
 #[test]
 fn no_cluster_says_how_far_apart_the_points_lie() {
     let dir = tempfile::tempdir().unwrap();
     let far = synth_scene(dir.path(), "[camera]\ndistance_m = 2.5\n");
+    let fixed = dir.path().join("fixed.toml");
+    std::fs::write(&fixed, "[cluster]\nspacing_factor = 0.0\n").unwrap();
+    let check = |scan: &Path, reference: &Path, extra: &[&str]| {
+        let args = [
+            "--json",
+            "check",
+            scan.to_str().unwrap(),
+            "--reference",
+            reference.to_str().unwrap(),
+        ];
+        run(&[&args[..], extra].concat())
+    };
+    let (scan, reference) = (far.join("scan.ply"), far.join("reference.ply"));
+    let o = check(&scan, &reference, &["--config", fixed.to_str().unwrap()]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("cluster: no cluster above the seabed")
+            && e.contains("linked within 0.01 m (perception.cluster.tolerance_m, or spacing_factor times the spacing), while a point's nearest lies")
+            && e.lines().count() == 1,
+        "{e}"
+    );
+    let truth = far.join("truth.json");
+    let o = check(&scan, &reference, &["--ground-truth", truth.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let f = |key: &str| summary[key].as_f64().unwrap();
+    // A body of revolution: its turn about its axis is not observable.
+    assert!(
+        f("axis_error_deg") < 0.5 && f("translation_error_m") < 0.002,
+        "{summary}"
+    );
     let (cloud, _) = uvms::io::ply::read_cloud(&data("scans/bottle/scan.ply")).unwrap();
     let in_mm = dir.path().join("mm.ply");
     let pts: Vec<[f64; 3]> = cloud
@@ -344,26 +377,13 @@ fn no_cluster_says_how_far_apart_the_points_lie() {
         .map(|p| [1e3 * p.x, 1e3 * p.y, 1e3 * p.z])
         .collect();
     write_ply_points(&in_mm, &pts);
-    for (scan, reference, mm) in [
-        (far.join("scan.ply"), far.join("reference.ply"), false),
-        (in_mm, data("models/bottle.ply"), true),
-    ] {
-        let o = run(&[
-            "check",
-            scan.to_str().unwrap(),
-            "--reference",
-            reference.to_str().unwrap(),
-        ]);
-        let e = stderr(&o);
-        assert_eq!(o.status.code(), Some(1), "{e}");
-        assert!(
-            e.contains("cluster: no cluster above the seabed")
-                && e.contains("perception.cluster.tolerance_m = 0.01 m, while a point's nearest lies")
-                && e.lines().count() == 1,
-            "{e}"
-        );
-        assert_eq!(e.contains("the scan in millimetres?"), mm, "{e}");
-    }
+    let o = check(&in_mm, &data("models/bottle.ply"), &[]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("cluster: the points above the seabed lie") && e.contains("the scan in millimetres?"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -685,7 +685,7 @@ fn bad_pipelines_are_input_errors_naming_the_key() {
         // Values found wrong only as their stage runs (they were named without the file and
         // table, or by another key).
         (
-            "[perception.cluster]\ntolerance_m = 1e-12",
+            "[perception.cluster]\ntolerance_m = 1e-12\nspacing_factor = 0.0",
             "variant.toml: perception.cluster.tolerance_m: too small for the extent of the cloud",
         ),
         // A controllers' model that is none (it was named as the model file's key).
