@@ -36,6 +36,18 @@ fn synth_scene(dir: &Path, toml: &str) -> PathBuf {
     out
 }
 
+/// `uvms --json check SCAN --reference REFERENCE` with `extra` arguments.
+fn check_json(scan: &Path, reference: &Path, extra: &[&str]) -> Output {
+    let args = [
+        "--json",
+        "check",
+        scan.to_str().unwrap(),
+        "--reference",
+        reference.to_str().unwrap(),
+    ];
+    run(&[&args[..], extra].concat())
+}
+
 fn write_ply_points(path: &Path, pts: &[[f64; 3]]) {
     let mut s = format!(
         "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nend_header\n",
@@ -339,18 +351,8 @@ fn no_cluster_says_how_far_apart_the_points_lie() {
     let far = synth_scene(dir.path(), "[camera]\ndistance_m = 2.5\n");
     let fixed = dir.path().join("fixed.toml");
     std::fs::write(&fixed, "[cluster]\nspacing_factor = 0.0\n").unwrap();
-    let check = |scan: &Path, reference: &Path, extra: &[&str]| {
-        let args = [
-            "--json",
-            "check",
-            scan.to_str().unwrap(),
-            "--reference",
-            reference.to_str().unwrap(),
-        ];
-        run(&[&args[..], extra].concat())
-    };
     let (scan, reference) = (far.join("scan.ply"), far.join("reference.ply"));
-    let o = check(&scan, &reference, &["--config", fixed.to_str().unwrap()]);
+    let o = check_json(&scan, &reference, &["--config", fixed.to_str().unwrap()]);
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(
@@ -360,7 +362,7 @@ fn no_cluster_says_how_far_apart_the_points_lie() {
         "{e}"
     );
     let truth = far.join("truth.json");
-    let o = check(&scan, &reference, &["--ground-truth", truth.to_str().unwrap()]);
+    let o = check_json(&scan, &reference, &["--ground-truth", truth.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let f = |key: &str| summary[key].as_f64().unwrap();
@@ -377,7 +379,7 @@ fn no_cluster_says_how_far_apart_the_points_lie() {
         .map(|p| [1e3 * p.x, 1e3 * p.y, 1e3 * p.z])
         .collect();
     write_ply_points(&in_mm, &pts);
-    let o = check(&in_mm, &data("models/bottle.ply"), &[]);
+    let o = check_json(&in_mm, &data("models/bottle.ply"), &[]);
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(
@@ -420,16 +422,8 @@ fn a_bottle_s_turn_drifting_with_the_noise_is_held() {
     );
     let (scan, reference, truth) = (s.join("scan.ply"), s.join("reference.ply"), s.join("truth.json"));
     let check = |extra: &[&str]| {
-        let args = [
-            "--json",
-            "check",
-            scan.to_str().unwrap(),
-            "--reference",
-            reference.to_str().unwrap(),
-            "--ground-truth",
-            truth.to_str().unwrap(),
-        ];
-        run(&[&args[..], extra].concat())
+        let truth = ["--ground-truth", truth.to_str().unwrap()];
+        check_json(&scan, &reference, &[&truth[..], extra].concat())
     };
     let o = check(&[]);
     assert!(o.status.success(), "{}", stderr(&o));

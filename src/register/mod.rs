@@ -377,7 +377,6 @@ pub fn register(
     let mut pose = initial;
     let mut iterations = 0;
     let mut visible = Vec::new();
-    let mut source = Vec::new();
     let mut last = None;
     let mut culled_from: Option<Pose> = None;
     for _ in 0..cfg.visibility_rounds {
@@ -391,7 +390,7 @@ pub fn register(
                 visible_indices(model, &pose, camera, &cfg.hidden_points)
             }),
         };
-        source = model.points_at(&visible);
+        let source = model.points_at(&visible);
         let target = Surfel {
             points: scan,
             normals: &scan_normals,
@@ -413,14 +412,13 @@ pub fn register(
         visible = timings.time("hidden_points", || {
             visible_indices(model, &pose, camera, &cfg.hidden_points)
         });
-        source = model.points_at(&visible);
     }
     let dist = if cfg.evaluation_distance_m > 0.0 {
         cfg.evaluation_distance_m
     } else {
         icp.gate_m
     };
-    let (fitness, inlier_rmse_m) = evaluate(&source, scan_index, &pose, dist);
+    let (fitness, inlier_rmse_m) = evaluate(&model.points_at(&visible), scan_index, &pose, dist);
     let scan_fitness = scan_fitness(model, scan, &pose, dist)?;
     let reached = format!(
         "fitness {fitness:.3} (scan {scan_fitness:.3}) at {dist:.4} m, inlier RMSE {inlier_rmse_m:.5} m, \
